@@ -1,0 +1,46 @@
+// Subcommands of the `scaratwin` command line. Each registers itself on the CLI11 app and
+// returns the process exit code when run.
+#pragma once
+
+#include <functional>
+#include <string>
+
+#include <CLI/CLI.hpp>
+
+namespace scaratwin::cli {
+
+// Exit codes shared by every subcommand.
+inline constexpr int kExitOk = 0;
+inline constexpr int kExitFailure = 1;  // the operation failed (unreachable, link lost, ...)
+inline constexpr int kExitUsage = 2;    // bad arguments or configuration
+
+// Options every subcommand understands.
+struct CommonOptions {
+  std::string config_path;  // robot description; empty = default
+  bool json = false;
+};
+
+using Runner = std::function<int()>;
+
+// Registers fk and ik; `run` receives the runner of the chosen subcommand.
+void add_kinematics_commands(CLI::App& app, CommonOptions& common, Runner& run);
+void add_plan_command(CLI::App& app, CommonOptions& common, Runner& run);
+
+}  // namespace scaratwin::cli
+
+#include <optional>
+
+#include "scaratwin/kinematics/robot_model.hpp"
+
+namespace scaratwin::cli {
+
+// Adds --config and --json to a subcommand.
+void add_common_options(CLI::App& cmd, CommonOptions& common, bool with_json = true);
+
+// Loads the robot description; prints the error and returns nullopt on failure.
+std::optional<RobotModel> load_model(const CommonOptions& common);
+
+// Parses "d1_m,q2_deg,q3_deg,q4_deg" into SI joints; prints the error on failure.
+std::optional<JointVector> joints_from_edge(const std::vector<double>& values, const char* what);
+
+}  // namespace scaratwin::cli

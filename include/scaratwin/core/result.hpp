@@ -1,0 +1,71 @@
+// Result<T>: the value of an operation that can fail in an expected way (an unreachable
+// target, a decode error, a timeout, a lost link). Bugs abort; bad user input at a boundary is
+// reported with a message naming the value; everything else that can fail returns a Result.
+// std::expected is not available with g++ 12 in C++20, so this is a small stand-in.
+#pragma once
+
+#include <cstdlib>
+#include <cstdio>
+#include <string>
+#include <utility>
+#include <variant>
+
+namespace scaratwin {
+
+// An error: a machine-readable code (module-defined enum, stored as int) and a message for
+// people that names the offending value and, where possible, what would be valid.
+struct Error {
+  int code = 0;
+  std::string message;
+};
+
+// Always-on check for programming errors (not for user input).
+#define SCARATWIN_CHECK(cond, msg)                                                     \
+  do {                                                                                  \
+    if (!(cond)) {                                                                      \
+      std::fprintf(stderr, "%s:%d: check failed: %s: %s\n", __FILE__, __LINE__, #cond, \
+                   msg);                                                                \
+      std::abort();                                                                     \
+    }                                                                                   \
+  } while (0)
+
+template <typename T>
+class [[nodiscard]] Result {
+ public:
+  Result(T value) : v_(std::move(value)) {}  // NOLINT: implicit by design
+  Result(Error error) : v_(std::move(error)) {}  // NOLINT: implicit by design
+
+  bool ok() const { return v_.index() == 0; }
+  explicit operator bool() const { return ok(); }
+
+  const T& value() const& {
+    SCARATWIN_CHECK(ok(), "Result::value() on an error");
+    return std::get<0>(v_);
+  }
+  T& value() & {
+    SCARATWIN_CHECK(ok(), "Result::value() on an error");
+    return std::get<0>(v_);
+  }
+  T&& value() && {
+    SCARATWIN_CHECK(ok(), "Result::value() on an error");
+    return std::get<0>(std::move(v_));
+  }
+  const T& operator*() const& { return value(); }
+  T& operator*() & { return value(); }
+  const T* operator->() const { return &value(); }
+  T* operator->() { return &value(); }
+
+  const Error& error() const {
+    SCARATWIN_CHECK(!ok(), "Result::error() on a value");
+    return std::get<1>(v_);
+  }
+
+ private:
+  std::variant<T, Error> v_;
+};
+
+// Result of an operation that has no value on success.
+struct Ok {};
+using Status = Result<Ok>;
+
+}  // namespace scaratwin

@@ -1,0 +1,35 @@
+// Joint <-> motor conversion. Z, J2 and J3 are steppers counted in steps from the joint zero;
+// the J3 motor also turns with J2 through the belt coupling (m3 = q3 * k3 + c * m2). The wrist
+// (J4) and gripper are servos commanded in degrees. Pure functions of the robot model.
+#pragma once
+
+#include <array>
+#include <cstdint>
+
+#include "scaratwin/kinematics/robot_model.hpp"
+
+namespace scaratwin {
+
+inline constexpr int kNumSteppers = 3;  // Z, J2, J3
+
+// Motor steps of the three steppers (not rounded) and the wrist servo angle.
+struct MotorPosition {
+  std::array<double, kNumSteppers> steps{};  // Z, J2, J3 motor steps from the joint zero
+  double wrist_deg = 0.0;
+};
+
+// Motor position of a joint state (exact, not rounded).
+MotorPosition joints_to_motors(const RobotModel& model, const JointVector& q);
+
+// Nearest whole step counts of a joint state.
+std::array<std::int32_t, kNumSteppers> joints_to_steps(const RobotModel& model,
+                                                       const JointVector& q);
+
+// Joint state from motor steps and the wrist servo angle.
+JointVector motors_to_joints(const RobotModel& model,
+                             const std::array<double, kNumSteppers>& steps, double wrist_deg);
+
+// Steps per joint unit of each stepper and its joint index (Z->d1, J2->q2, J3->q3).
+double steps_per_unit(const RobotModel& model, int stepper);
+
+}  // namespace scaratwin

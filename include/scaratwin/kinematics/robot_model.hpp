@@ -1,0 +1,118 @@
+// The robot description as a constant model: the DH table, joint limits, home pose, motor
+// conversions, servo ranges and the scene. It is loaded and validated once (see
+// scaratwin/config/robot_config.hpp) and passed by const reference everywhere. Every field is
+// SI unless its name says otherwise. The defaults are the paper's robot (Zhang et al., Sensors
+// 2024, 24, 7183, Table 1) as described in DESIGN.md.
+#pragma once
+
+#include <array>
+#include <string>
+#include <vector>
+
+#include "scaratwin/core/result.hpp"
+
+namespace scaratwin {
+
+inline constexpr int kNumJoints = 4;
+
+// Joint state of the SCARA in joint order: d1 (prismatic, m), q2, q3, q4 (revolute, rad).
+using JointVector = std::array<double, kNumJoints>;
+
+enum class JointType { kPrismatic, kRevolute };
+
+// One row of the standard DH table (Craig: Rz(theta) Tz(d) Tx(a) Rx(alpha)). For a prismatic
+// joint `d_m` is an offset added to the joint variable; for a revolute joint `theta_rad` is an
+// offset added to the joint variable.
+struct DhRow {
+  JointType type = JointType::kRevolute;
+  double theta_rad = 0.0;
+  double d_m = 0.0;
+  double a_m = 0.0;
+  double alpha_rad = 0.0;
+};
+
+// Travel of one joint, in the joint's SI unit (m or rad).
+struct JointLimit {
+  double min = 0.0;
+  double max = 0.0;
+  bool contains(double v) const { return v >= min && v <= max; }
+};
+
+// A stepper motor axis: conversion and limits in motor steps.
+struct StepperAxis {
+  double steps_per_unit = 1.0;  // steps per metre (Z) or per radian (J2, J3)
+  double max_speed_steps_s = 5000.0;
+  double max_accel_steps_s2 = 1500.0;
+};
+
+// A hobby servo: angle range (deg, as the servo sees it) and pulse widths (us) at both ends.
+struct ServoSpec {
+  double min_deg = 0.0;
+  double max_deg = 180.0;
+  double pulse_min_us = 544.0;
+  double pulse_max_us = 2400.0;
+  double max_speed_deg_s = 300.0;
+};
+
+// Motor conversions: Z, J2 and J3 are steppers; J4 (wrist) and the gripper are servos.
+struct MotorModel {
+  StepperAxis z;
+  StepperAxis j2;
+  StepperAxis j3;
+  // The J3 motor must also move this many steps per J2 motor step (belt coupling).
+  double j3_per_j2_coupling = 0.8;
+  ServoSpec wrist;
+  ServoSpec gripper;
+  double gripper_open_deg = 0.0;
+  double gripper_closed_deg = 75.0;
+};
+
+enum class CubeColor { kRed = 0, kGreen = 1, kBlue = 2 };
+inline constexpr int kNumColors = 3;
+
+// A sorting tray: centre in the base frame and inner size.
+struct Tray {
+  double x_m = 0.0;
+  double y_m = 0.0;
+  double size_m = 0.05;
+};
+
+// The fixed overhead camera: position, look-at point, vertical field of view and image size.
+struct CameraModel {
+  std::array<double, 3> pos_m{0.12, 0.0, 0.45};
+  std::array<double, 3> look_at_m{0.12, 0.0, -0.03};
+  double fovy_deg = 60.0;
+  int width_px = 640;
+  int height_px = 480;
+};
+
+// The work scene, in the robot base frame (z = 0 at the base; the table top below it).
+struct SceneModel {
+  double table_z_m = -0.04;       // table top height
+  double cube_size_m = 0.02;      // edge length of the cubes
+  double grasp_z_m = -0.02;       // tool z at which a cube on the table is grasped
+  double approach_height_m = 0.04;  // clearance above pick/place points
+  std::array<Tray, kNumColors> trays{};  // indexed by CubeColor
+  CameraModel camera;
+};
+
+struct RobotModel {
+  std::string name = "scara";
+  std::array<DhRow, kNumJoints> dh{};
+  std::array<JointLimit, kNumJoints> limits{};
+  JointVector home{};
+  MotorModel motors;
+  SceneModel scene;
+};
+
+// The paper's robot with every default of DESIGN.md.
+RobotModel paper_robot();
+
+// Checks the invariants the rest of scaratwin relies on (SCARA structure, ordered limits,
+// positive conversions, home inside limits). The error message names the field and the value.
+Status validate(const RobotModel& model);
+
+const char* color_name(CubeColor c);
+Result<CubeColor> parse_color(std::string_view name);
+
+}  // namespace scaratwin

@@ -1,0 +1,297 @@
+#include "scaratwin/config/robot_config.hpp"
+
+#include <unistd.h>
+
+#include <cmath>
+#include <cstdlib>
+#include <fstream>
+#include <set>
+#include <sstream>
+#include <string>
+
+#include <fmt/format.h>
+
+#include <toml++/toml.h>
+
+#include "scaratwin/core/units.hpp"
+
+namespace scaratwin {
+namespace {
+
+// Walks one TOML table, remembering which keys were read so that the rest can be reported as
+// unknown. Errors are collected as the first one found.
+class TableReader {
+ public:
+  TableReader(const toml::table* table, std::string path, std::string* error)
+      : table_(table), path_(std::move(path)), error_(error) {}
+
+  bool present() const { return table_ != nullptr; }
+
+  // Reads a number into `out` (scaled by `scale`) if the key exists.
+  void number(const char* key, double& out, double scale = 1.0) {
+    const toml::node* n = get(key);
+    if (n == nullptr) return;
+    if (auto v = n->value<double>(); v && n->is_number()) {
+      if (!std::isfinite(*v)) {
+        fail(fmt::format("{} = {}: must be a finite number", name(key), *v));
+        return;
+      }
+      out = *v * scale;
+    } else {
+      fail(fmt::format("{}: expected a number, found {}", name(key), type_of(*n)));
+    }
+  }
+
+  void integer(const char* key, int& out, int lo, int hi) {
+    const toml::node* n = get(key);
+    if (n == nullptr) return;
+    auto v = n->value<int64_t>();
+    if (!n->is_integer() || !v) {
+      fail(fmt::format("{}: expected an integer, found {}", name(key), type_of(*n)));
+    } else if (*v < lo || *v > hi) {
+      fail(fmt::format("{} = {}: must be between {} and {}", name(key), *v, lo, hi));
+    } else {
+      out = static_cast<int>(*v);
+    }
+  }
+
+  void string(const char* key, std::string& out) {
+    const toml::node* n = get(key);
+    if (n == nullptr) return;
+    if (auto v = n->value<std::string>(); v && n->is_string()) {
+      out = *v;
+    } else {
+      fail(fmt::format("{}: expected a string, found {}", name(key), type_of(*n)));
+    }
+  }
+
+  // Reads an array of exactly N numbers.
+  template <size_t N>
+  void numbers(const char* key, std::array<double, N>& out, double scale = 1.0) {
+    const toml::node* n = get(key);
+    if (n == nullptr) return;
+    const toml::array* arr = n->as_array();
+    if (arr == nullptr || arr->size() != N) {
+      fail(fmt::format("{}: expected an array of {} numbers", name(key), N));
+      return;
+    }
+    std::array<double, N> tmp{};
+    for (size_t i = 0; i < N; ++i) {
+      auto v = (*arr)[i].value<double>();
+      if (!v || !(*arr)[i].is_number() || !std::isfinite(*v)) {
+        fail(fmt::format("{}[{}]: expected a finite number", name(key), i));
+        return;
+      }
+      tmp[i] = *v * scale;
+    }
+    out = tmp;
+  }
+
+  TableReader sub(const char* key) {
+    const toml::node* n = get(key);
+    if (n != nullptr && !n->is_table()) {
+      fail(fmt::format("{}: expected a table, found {}", name(key), type_of(*n)));
+      return TableReader(nullptr, name(key), error_);
+    }
+    return TableReader(n ? n->as_table() : nullptr, name(key), error_);
+  }
+
+  // Reports the first key of this table that nobody read.
+  void reject_unknown(std::string_view valid) {
+    if (table_ == nullptr) return;
+    for (const auto& [k, v] : *table_) {
+      if (!seen_.count(std::string(k.str()))) {
+        fail(fmt::format("{}: unknown key (valid keys: {})", name(std::string(k.str()).c_str()),
+                         valid));
+        return;
+      }
+    }
+  }
+
+  void fail(std::string message) {
+    if (error_->empty()) *error_ = std::move(message);
+  }
+
+ private:
+  const toml::node* get(const char* key) {
+    seen_.insert(key);
+    return table_ ? table_->get(key) : nullptr;
+  }
+  std::string name(const char* key) const {
+    return path_.empty() ? std::string(key) : path_ + "." + key;
+  }
+  static std::string type_of(const toml::node& n) {
+    std::ostringstream s;
+    s << n.type();
+    return s.str();
+  }
+
+  const toml::table* table_;
+  std::string path_;
+  std::string* error_;
+  std::set<std::string> seen_;
+};
+
+void read_stepper(TableReader t, const char* unit_key, StepperAxis& axis, double* coupling) {
+  t.number(unit_key, axis.steps_per_unit);
+  t.number("max_speed_steps_s", axis.max_speed_steps_s);
+  t.number("max_accel_steps_s2", axis.max_accel_steps_s2);
+  if (coupling != nullptr) {
+    t.number("coupling_steps_per_j2_step", *coupling);
+    t.reject_unknown(fmt::format("{}, max_speed_steps_s, max_accel_steps_s2, "
+                                 "coupling_steps_per_j2_step",
+                                 unit_key));
+  } else {
+    t.reject_unknown(fmt::format("{}, max_speed_steps_s, max_accel_steps_s2", unit_key));
+  }
+}
+
+void read_servo(TableReader t, ServoSpec& s, double* open_deg, double* closed_deg) {
+  t.number("min_deg", s.min_deg);
+  t.number("max_deg", s.max_deg);
+  t.number("pulse_min_us", s.pulse_min_us);
+  t.number("pulse_max_us", s.pulse_max_us);
+  t.number("max_speed_deg_s", s.max_speed_deg_s);
+  if (open_deg != nullptr) {
+    t.number("open_deg", *open_deg);
+    t.number("closed_deg", *closed_deg);
+    t.reject_unknown(
+        "min_deg, max_deg, pulse_min_us, pulse_max_us, max_speed_deg_s, open_deg, closed_deg");
+  } else {
+    t.reject_unknown("min_deg, max_deg, pulse_min_us, pulse_max_us, max_speed_deg_s");
+  }
+}
+
+}  // namespace
+
+Result<RobotModel> parse_robot_config(std::string_view toml_text, std::string_view source) {
+  toml::table root;
+  try {
+    root = toml::parse(toml_text, std::string(source));
+  } catch (const toml::parse_error& e) {
+    return Error{1, fmt::format("{}:{}:{}: {}", source, e.source().begin.line,
+                                e.source().begin.column, e.description())};
+  }
+  RobotModel m = paper_robot();
+  std::string error;
+  TableReader top(&root, "", &error);
+  top.string("name", m.name);
+
+  {
+    TableReader dh = top.sub("dh");
+    for (int i = 0; i < kNumJoints; ++i) {
+      static constexpr const char* kJ[] = {"j1", "j2", "j3", "j4"};
+      TableReader row = dh.sub(kJ[i]);
+      std::string type = m.dh[i].type == JointType::kPrismatic ? "prismatic" : "revolute";
+      row.string("type", type);
+      if (type == "prismatic") {
+        m.dh[i].type = JointType::kPrismatic;
+      } else if (type == "revolute") {
+        m.dh[i].type = JointType::kRevolute;
+      } else {
+        row.fail(fmt::format("dh.{}.type = \"{}\": expected \"prismatic\" or \"revolute\"", kJ[i],
+                             type));
+      }
+      row.number("theta_deg", m.dh[i].theta_rad, 1.0 / kDegPerRad);
+      row.number("d_m", m.dh[i].d_m);
+      row.number("a_m", m.dh[i].a_m);
+      row.number("alpha_deg", m.dh[i].alpha_rad, 1.0 / kDegPerRad);
+      row.reject_unknown("type, theta_deg, d_m, a_m, alpha_deg");
+    }
+    dh.reject_unknown("j1, j2, j3, j4");
+  }
+  {
+    TableReader lim = top.sub("limits");
+    std::array<double, 2> r{m.limits[0].min, m.limits[0].max};
+    lim.numbers("j1_m", r);
+    m.limits[0] = {r[0], r[1]};
+    static constexpr const char* kK[] = {"j2_deg", "j3_deg", "j4_deg"};
+    for (int i = 1; i < kNumJoints; ++i) {
+      r = {m.limits[i].min, m.limits[i].max};
+      lim.numbers(kK[i - 1], r, 1.0 / kDegPerRad);
+      m.limits[i] = {r[0], r[1]};
+    }
+    lim.reject_unknown("j1_m, j2_deg, j3_deg, j4_deg");
+  }
+  {
+    TableReader home = top.sub("home");
+    home.number("d1_m", m.home[0]);
+    home.number("q2_deg", m.home[1], 1.0 / kDegPerRad);
+    home.number("q3_deg", m.home[2], 1.0 / kDegPerRad);
+    home.number("q4_deg", m.home[3], 1.0 / kDegPerRad);
+    home.reject_unknown("d1_m, q2_deg, q3_deg, q4_deg");
+  }
+  {
+    TableReader motors = top.sub("motors");
+    read_stepper(motors.sub("z"), "steps_per_m", m.motors.z, nullptr);
+    read_stepper(motors.sub("j2"), "steps_per_rad", m.motors.j2, nullptr);
+    read_stepper(motors.sub("j3"), "steps_per_rad", m.motors.j3, &m.motors.j3_per_j2_coupling);
+    motors.reject_unknown("z, j2, j3");
+  }
+  {
+    TableReader servos = top.sub("servos");
+    read_servo(servos.sub("wrist"), m.motors.wrist, nullptr, nullptr);
+    read_servo(servos.sub("gripper"), m.motors.gripper, &m.motors.gripper_open_deg,
+               &m.motors.gripper_closed_deg);
+    servos.reject_unknown("wrist, gripper");
+  }
+  {
+    TableReader scene = top.sub("scene");
+    scene.number("table_z_m", m.scene.table_z_m);
+    scene.number("cube_size_m", m.scene.cube_size_m);
+    scene.number("grasp_z_m", m.scene.grasp_z_m);
+    scene.number("approach_height_m", m.scene.approach_height_m);
+    TableReader trays = scene.sub("trays");
+    for (int c = 0; c < kNumColors; ++c) {
+      TableReader tray = trays.sub(color_name(static_cast<CubeColor>(c)));
+      tray.number("x_m", m.scene.trays[c].x_m);
+      tray.number("y_m", m.scene.trays[c].y_m);
+      tray.number("size_m", m.scene.trays[c].size_m);
+      tray.reject_unknown("x_m, y_m, size_m");
+    }
+    trays.reject_unknown("red, green, blue");
+    TableReader cam = scene.sub("camera");
+    cam.numbers("pos_m", m.scene.camera.pos_m);
+    cam.numbers("look_at_m", m.scene.camera.look_at_m);
+    cam.number("fovy_deg", m.scene.camera.fovy_deg);
+    cam.integer("width_px", m.scene.camera.width_px, 16, 4096);
+    cam.integer("height_px", m.scene.camera.height_px, 16, 4096);
+    cam.reject_unknown("pos_m, look_at_m, fovy_deg, width_px, height_px");
+    scene.reject_unknown("table_z_m, cube_size_m, grasp_z_m, approach_height_m, trays, camera");
+  }
+  top.reject_unknown("name, dh, limits, home, motors, servos, scene");
+  if (!error.empty()) return Error{1, fmt::format("{}: {}", source, error)};
+  if (Status s = validate(m); !s) return Error{1, fmt::format("{}: {}", source, s.error().message)};
+  return m;
+}
+
+Result<RobotModel> load_robot_config(const std::filesystem::path& path) {
+  std::ifstream in(path, std::ios::binary);
+  if (!in) {
+    return Error{2, fmt::format("cannot read robot description '{}': no such file or not "
+                                "readable (pass --config FILE or set SCARATWIN_CONFIG)",
+                                path.string())};
+  }
+  std::stringstream ss;
+  ss << in.rdbuf();
+  return parse_robot_config(ss.str(), path.string());
+}
+
+std::filesystem::path default_robot_config_path() {
+  if (const char* env = std::getenv("SCARATWIN_CONFIG"); env != nullptr && *env != '\0') {
+    return env;
+  }
+  std::error_code ec;
+  const auto exe = std::filesystem::read_symlink("/proc/self/exe", ec);
+  if (!ec) {
+    const auto installed = exe.parent_path() / ".." / "share" / "scaratwin" / "scara.toml";
+    if (std::filesystem::exists(installed, ec)) return installed.lexically_normal();
+  }
+  return SCARATWIN_DEFAULT_CONFIG;
+}
+
+Result<RobotModel> load_robot_config_or_default(const std::filesystem::path& path) {
+  return load_robot_config(path.empty() ? default_robot_config_path() : path);
+}
+
+}  // namespace scaratwin

@@ -1,0 +1,170 @@
+#include "scaratwin/kinematics/robot_model.hpp"
+
+#include <cmath>
+#include <string>
+
+#include <fmt/format.h>
+
+#include "scaratwin/core/units.hpp"
+
+namespace scaratwin {
+
+RobotModel paper_robot() {
+  RobotModel m;
+  m.name = "paper-scara";
+  // Table 1 of the paper: J1 prismatic, J2..J4 revolute, standard DH.
+  m.dh[0] = {JointType::kPrismatic, 0.0, 0.0, 0.067, 0.0};
+  m.dh[1] = {JointType::kRevolute, 0.0, -0.017, 0.092, 0.0};
+  m.dh[2] = {JointType::kRevolute, 0.0, -0.010, 0.095, 0.0};
+  m.dh[3] = {JointType::kRevolute, 0.0, -0.040, 0.0, 0.0};
+  m.limits[0] = {0.01, 0.12};
+  m.limits[1] = {deg_to_rad(-105.0), deg_to_rad(115.0)};
+  m.limits[2] = {deg_to_rad(-75.0), deg_to_rad(205.0)};
+  m.limits[3] = {deg_to_rad(0.0), deg_to_rad(180.0)};
+  m.home = {0.12, 0.0, 0.0, 0.0};
+  m.motors.z = {205560.0, 5000.0, 1500.0};
+  m.motors.j2 = {945.0, 5000.0, 1500.0};
+  m.motors.j3 = {1455.0, 5000.0, 1500.0};
+  m.motors.j3_per_j2_coupling = 0.8;
+  m.motors.wrist = {0.0, 180.0, 544.0, 2400.0, 300.0};
+  m.motors.gripper = {0.0, 180.0, 544.0, 2400.0, 300.0};
+  m.motors.gripper_open_deg = 0.0;
+  m.motors.gripper_closed_deg = 75.0;
+  m.scene.table_z_m = -0.03;
+  m.scene.cube_size_m = 0.02;
+  m.scene.grasp_z_m = -0.02;
+  m.scene.approach_height_m = 0.04;
+  m.scene.trays[static_cast<int>(CubeColor::kRed)] = {0.10, -0.14, 0.05};
+  m.scene.trays[static_cast<int>(CubeColor::kGreen)] = {0.17, -0.11, 0.05};
+  m.scene.trays[static_cast<int>(CubeColor::kBlue)] = {0.225, -0.04, 0.05};
+  m.scene.camera = {{0.15, 0.0, 0.45}, {0.15, 0.0, -0.03}, 45.0, 640, 480};
+  return m;
+}
+
+namespace {
+
+Error invalid(std::string message) { return Error{1, std::move(message)}; }
+
+bool finite_positive(double v) { return std::isfinite(v) && v > 0.0; }
+
+}  // namespace
+
+Status validate(const RobotModel& m) {
+  static constexpr const char* kJoint[] = {"j1", "j2", "j3", "j4"};
+  if (m.dh[0].type != JointType::kPrismatic) {
+    return invalid("dh.j1.type: the first joint of a SCARA must be prismatic");
+  }
+  for (int i = 0; i < kNumJoints; ++i) {
+    const DhRow& r = m.dh[i];
+    if (i > 0 && r.type != JointType::kRevolute) {
+      return invalid(fmt::format("dh.{}.type: must be revolute (only j1 is prismatic)", kJoint[i]));
+    }
+    for (double v : {r.theta_rad, r.d_m, r.a_m, r.alpha_rad}) {
+      if (!std::isfinite(v)) return invalid(fmt::format("dh.{}: values must be finite", kJoint[i]));
+    }
+    if (r.alpha_rad != 0.0) {
+      return invalid(fmt::format(
+          "dh.{}.alpha_deg = {}: a SCARA has parallel joint axes, so every alpha must be 0",
+          kJoint[i], rad_to_deg(r.alpha_rad)));
+    }
+    if (r.a_m < 0.0) {
+      return invalid(fmt::format("dh.{}.a_m = {}: link lengths must be >= 0", kJoint[i], r.a_m));
+    }
+    const JointLimit& l = m.limits[i];
+    if (!std::isfinite(l.min) || !std::isfinite(l.max) || !(l.min < l.max)) {
+      return invalid(fmt::format("limits.{}: min ({}) must be finite and below max ({})",
+                                 kJoint[i], l.min, l.max));
+    }
+    if (!l.contains(m.home[i])) {
+      return invalid(fmt::format("home.{} = {}: outside the joint limits [{}, {}]", kJoint[i],
+                                 m.home[i], l.min, l.max));
+    }
+  }
+  if (m.dh[1].a_m <= 0.0 || m.dh[2].a_m <= 0.0) {
+    return invalid("dh.j2.a_m and dh.j3.a_m must be > 0 (the two arm links)");
+  }
+  struct Named {
+    const char* name;
+    const StepperAxis* axis;
+  };
+  for (const Named& n : {Named{"motors.z", &m.motors.z}, Named{"motors.j2", &m.motors.j2},
+                         Named{"motors.j3", &m.motors.j3}}) {
+    if (!finite_positive(n.axis->steps_per_unit)) {
+      return invalid(fmt::format("{}.steps_per_unit = {}: must be > 0", n.name,
+                                 n.axis->steps_per_unit));
+    }
+    if (!finite_positive(n.axis->max_speed_steps_s)) {
+      return invalid(fmt::format("{}.max_speed_steps_s = {}: must be > 0", n.name,
+                                 n.axis->max_speed_steps_s));
+    }
+    if (!finite_positive(n.axis->max_accel_steps_s2)) {
+      return invalid(fmt::format("{}.max_accel_steps_s2 = {}: must be > 0", n.name,
+                                 n.axis->max_accel_steps_s2));
+    }
+  }
+  if (!std::isfinite(m.motors.j3_per_j2_coupling)) {
+    return invalid("motors.j3_per_j2_coupling must be finite");
+  }
+  for (const auto& [name, s] :
+       {std::pair{"motors.wrist", &m.motors.wrist}, std::pair{"motors.gripper", &m.motors.gripper}}) {
+    if (!(s->min_deg < s->max_deg) || !(s->pulse_min_us < s->pulse_max_us) ||
+        s->pulse_min_us < 200 || s->pulse_max_us > 3000 || !finite_positive(s->max_speed_deg_s)) {
+      return invalid(fmt::format(
+          "{}: needs min_deg < max_deg, 200 <= pulse_min_us < pulse_max_us <= 3000 and "
+          "max_speed_deg_s > 0",
+          name));
+    }
+  }
+  const double wrist_min = deg_to_rad(m.motors.wrist.min_deg);
+  const double wrist_max = deg_to_rad(m.motors.wrist.max_deg);
+  if (m.limits[3].min < wrist_min - 1e-9 || m.limits[3].max > wrist_max + 1e-9) {
+    return invalid(fmt::format("limits.j4 [{}, {}] deg must lie inside the wrist servo range "
+                               "[{}, {}] deg",
+                               rad_to_deg(m.limits[3].min), rad_to_deg(m.limits[3].max),
+                               m.motors.wrist.min_deg, m.motors.wrist.max_deg));
+  }
+  for (double g : {m.motors.gripper_open_deg, m.motors.gripper_closed_deg}) {
+    if (g < m.motors.gripper.min_deg || g > m.motors.gripper.max_deg) {
+      return invalid(fmt::format("motors.gripper open/closed angle {} deg is outside the servo "
+                                 "range [{}, {}]",
+                                 g, m.motors.gripper.min_deg, m.motors.gripper.max_deg));
+    }
+  }
+  const SceneModel& s = m.scene;
+  if (!finite_positive(s.cube_size_m) || s.cube_size_m > 0.1) {
+    return invalid(fmt::format("scene.cube_size_m = {}: must be in (0, 0.1]", s.cube_size_m));
+  }
+  if (!finite_positive(s.approach_height_m)) {
+    return invalid("scene.approach_height_m must be > 0");
+  }
+  const CameraModel& c = s.camera;
+  if (c.width_px < 16 || c.width_px > 4096 || c.height_px < 16 || c.height_px > 4096) {
+    return invalid(fmt::format("scene.camera size {}x{}: width and height must be 16..4096",
+                               c.width_px, c.height_px));
+  }
+  if (!(c.fovy_deg > 1.0 && c.fovy_deg < 170.0)) {
+    return invalid(fmt::format("scene.camera.fovy_deg = {}: must be in (1, 170)", c.fovy_deg));
+  }
+  return Ok{};
+}
+
+const char* color_name(CubeColor c) {
+  switch (c) {
+    case CubeColor::kRed:
+      return "red";
+    case CubeColor::kGreen:
+      return "green";
+    case CubeColor::kBlue:
+      return "blue";
+  }
+  return "?";
+}
+
+Result<CubeColor> parse_color(std::string_view name) {
+  if (name == "red") return CubeColor::kRed;
+  if (name == "green") return CubeColor::kGreen;
+  if (name == "blue") return CubeColor::kBlue;
+  return Error{1, fmt::format("unknown colour '{}': expected red, green or blue", name)};
+}
+
+}  // namespace scaratwin
