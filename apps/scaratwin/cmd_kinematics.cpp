@@ -30,8 +30,8 @@ std::optional<RobotModel> load_model(const CommonOptions& common) {
 
 std::optional<JointVector> joints_from_edge(const std::vector<double>& v, const char* what) {
   if (v.size() != 4) {
-    std::fprintf(stderr, "scaratwin: %s needs 4 values D1_M Q2_DEG Q3_DEG Q4_DEG, got %zu\n",
-                 what, v.size());
+    std::fprintf(stderr, "scaratwin: %s needs 4 values D1_M Q2_DEG Q3_DEG Q4_DEG, got %zu\n", what,
+                 v.size());
     return std::nullopt;
   }
   for (double x : v) {
@@ -77,16 +77,16 @@ int run_fk(const CommonOptions& common, const FkArgs& a) {
     std::fprintf(stderr,
                  "scaratwin fk: %s = %g %s is outside its limits [%g, %g] (use --no-limits to "
                  "compute anyway)\n",
-                 joint_name(j), (*q)[j] * scale, j == 0 ? "m" : "deg",
-                 model->limits[j].min * scale, model->limits[j].max * scale);
+                 joint_name(j), (*q)[j] * scale, j == 0 ? "m" : "deg", model->limits[j].min * scale,
+                 model->limits[j].max * scale);
     return kExitFailure;
   }
   const ToolPose p = forward(*model, *q);
   if (common.json) {
     std::puts(pose_json(p).dump().c_str());
   } else {
-    fmt::print("x = {:.6f} m  y = {:.6f} m  z = {:.6f} m  yaw = {:.4f} deg\n", p.x_m, p.y_m,
-               p.z_m, rad_to_deg(p.yaw_rad));
+    fmt::print("x = {:.6f} m  y = {:.6f} m  z = {:.6f} m  yaw = {:.4f} deg\n", p.x_m, p.y_m, p.z_m,
+               rad_to_deg(p.yaw_rad));
   }
   return kExitOk;
 }
@@ -130,12 +130,11 @@ int run_ik(const CommonOptions& common, const IkArgs& a) {
 void add_kinematics_commands(CLI::App& app, CommonOptions& common, Runner& run) {
   auto fk_args = std::make_shared<FkArgs>();
   CLI::App* fk = app.add_subcommand("fk", "forward kinematics: tool pose of a joint state");
-  fk->add_option("joints", fk_args->joints, "D1_M Q2_DEG Q3_DEG Q4_DEG")
-      ->expected(4)
-      ->required();
+  fk->add_option("joints", fk_args->joints, "D1_M Q2_DEG Q3_DEG Q4_DEG")->expected(4)->required();
   fk->add_flag("--no-limits", fk_args->no_limits, "compute even outside the joint limits");
   add_common_options(*fk, common);
-  fk->callback([&common, &run, fk_args] { run = [&common, fk_args] { return run_fk(common, *fk_args); }; });
+  fk->callback(
+      [&common, &run, fk_args] { run = [&common, fk_args] { return run_fk(common, *fk_args); }; });
 
   auto ik_args = std::make_shared<IkArgs>();
   CLI::App* ik = app.add_subcommand(
@@ -147,7 +146,8 @@ void add_kinematics_commands(CLI::App& app, CommonOptions& common, Runner& run) 
       ->expected(4);
   ik->add_flag("--all", ik_args->all, "print every elbow solution within the limits");
   add_common_options(*ik, common);
-  ik->callback([&common, &run, ik_args] { run = [&common, ik_args] { return run_ik(common, *ik_args); }; });
+  ik->callback(
+      [&common, &run, ik_args] { run = [&common, ik_args] { return run_ik(common, *ik_args); }; });
 }
 
 }  // namespace scaratwin::cli

@@ -193,8 +193,7 @@ void add_plan_command(CLI::App& app, CommonOptions& common, Runner& run) {
   cmd->add_option("--via", a->via, "via point 'D1_M,Q2_DEG,Q3_DEG,Q4_DEG' (repeat; in order)");
   cmd->add_option("--line", a->line, "straight tool line to X_M Y_M Z_M YAW_DEG")->expected(4);
   cmd->add_option("--pick", a->pick, "pick pose X_M Y_M Z_M YAW_DEG (with --place)")->expected(4);
-  cmd->add_option("--place", a->place, "place pose X_M Y_M Z_M YAW_DEG (with --pick)")
-      ->expected(4);
+  cmd->add_option("--place", a->place, "place pose X_M Y_M Z_M YAW_DEG (with --pick)")->expected(4);
   cmd->add_option("--profile", a->profile, "joint profile: quintic (paper's jtraj) or trapezoid")
       ->capture_default_str();
   cmd->add_option("--samples", a->samples, "samples of a quintic")->capture_default_str();

@@ -138,9 +138,10 @@ void read_stepper(TableReader t, const char* unit_key, StepperAxis& axis, double
   t.number("max_accel_steps_s2", axis.max_accel_steps_s2);
   if (coupling != nullptr) {
     t.number("coupling_steps_per_j2_step", *coupling);
-    t.reject_unknown(fmt::format("{}, max_speed_steps_s, max_accel_steps_s2, "
-                                 "coupling_steps_per_j2_step",
-                                 unit_key));
+    t.reject_unknown(
+        fmt::format("{}, max_speed_steps_s, max_accel_steps_s2, "
+                    "coupling_steps_per_j2_step",
+                    unit_key));
   } else {
     t.reject_unknown(fmt::format("{}, max_speed_steps_s, max_accel_steps_s2", unit_key));
   }

@@ -105,19 +105,18 @@ Result<IkBranches> inverse_branches(const RobotModel& model, const ToolPose& pos
   const auto& dh = model.dh;
   if (!std::isfinite(pose.x_m) || !std::isfinite(pose.y_m) || !std::isfinite(pose.z_m) ||
       !std::isfinite(pose.yaw_rad)) {
-    return ik_error(IkError::kNotFinite,
-                    fmt::format("target ({}, {}, {}, {}) is not finite", pose.x_m, pose.y_m,
-                                pose.z_m, pose.yaw_rad));
+    return ik_error(IkError::kNotFinite, fmt::format("target ({}, {}, {}, {}) is not finite",
+                                                     pose.x_m, pose.y_m, pose.z_m, pose.yaw_rad));
   }
   // z: the prismatic joint alone.
   const double d1 = pose.z_m - dh[0].d_m - dh[1].d_m - dh[2].d_m - dh[3].d_m;
   if (!model.limits[0].contains(d1)) {
-    return ik_error(IkError::kZOutOfTravel,
-                    fmt::format("z = {:.6f} m needs d1 = {:.6f} m, outside the Z travel "
-                                "[{}, {}] m (tool z from {:.4f} to {:.4f} m)",
-                                pose.z_m, d1, model.limits[0].min, model.limits[0].max,
-                                pose.z_m - d1 + model.limits[0].min,
-                                pose.z_m - d1 + model.limits[0].max));
+    return ik_error(
+        IkError::kZOutOfTravel,
+        fmt::format("z = {:.6f} m needs d1 = {:.6f} m, outside the Z travel "
+                    "[{}, {}] m (tool z from {:.4f} to {:.4f} m)",
+                    pose.z_m, d1, model.limits[0].min, model.limits[0].max,
+                    pose.z_m - d1 + model.limits[0].min, pose.z_m - d1 + model.limits[0].max));
   }
   // planar part: wrist centre relative to the shoulder axis.
   double px = pose.x_m, py = pose.y_m;
@@ -186,15 +185,17 @@ Result<IkSolutions> inverse_all(const RobotModel& model, const ToolPose& pose,
                       : 1;
     const int j = bad_joint[b];
     const JointVector& q = branches->solutions[b];
-    const IkError code = j == 1 ? IkError::kJ2Limit : j == 2 ? IkError::kJ3Limit : IkError::kJ4Limit;
+    const IkError code = j == 1   ? IkError::kJ2Limit
+                         : j == 2 ? IkError::kJ3Limit
+                                  : IkError::kJ4Limit;
     return ik_error(code,
                     fmt::format("no elbow solution within the joint limits: {} = {:.3f} deg is "
                                 "outside [{:.1f}, {:.1f}] deg (other elbow: {} out of limits)",
                                 joint_name(j), rad_to_deg(q[j]), rad_to_deg(model.limits[j].min),
                                 rad_to_deg(model.limits[j].max), joint_name(bad_joint[1 - b])));
   }
-  if (out.count == 2 && joint_distance2(out.solutions[1], seed) <
-                            joint_distance2(out.solutions[0], seed)) {
+  if (out.count == 2 &&
+      joint_distance2(out.solutions[1], seed) < joint_distance2(out.solutions[0], seed)) {
     std::swap(out.solutions[0], out.solutions[1]);
   }
   return out;

@@ -34,8 +34,8 @@ std::array<std::int32_t, kNumSteppers> joints_to_steps(const RobotModel& model,
   return s;
 }
 
-JointVector motors_to_joints(const RobotModel& model,
-                             const std::array<double, kNumSteppers>& steps, double wrist_deg) {
+JointVector motors_to_joints(const RobotModel& model, const std::array<double, kNumSteppers>& steps,
+                             double wrist_deg) {
   JointVector q;
   q[0] = steps[0] / model.motors.z.steps_per_unit;
   q[1] = steps[1] / model.motors.j2.steps_per_unit;

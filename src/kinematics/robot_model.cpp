@@ -70,14 +70,22 @@ Status validate(const RobotModel& m) {
     if (r.a_m < 0.0) {
       return invalid(fmt::format("dh.{}.a_m = {}: link lengths must be >= 0", kJoint[i], r.a_m));
     }
+    // messages use the description file's keys and units (m for j1, degrees otherwise).
+    static constexpr const char* kLimitKey[] = {"j1_m", "j2_deg", "j3_deg", "j4_deg"};
+    const double scale = i == 0 ? 1.0 : kDegPerRad;
     const JointLimit& l = m.limits[i];
     if (!std::isfinite(l.min) || !std::isfinite(l.max) || !(l.min < l.max)) {
-      return invalid(fmt::format("limits.{}: min ({}) must be finite and below max ({})",
-                                 kJoint[i], l.min, l.max));
+      return invalid(fmt::format("limits.{} = [{}, {}]: min must be finite and below max",
+                                 kLimitKey[i], l.min * scale, l.max * scale));
     }
+  }
+  for (int i = 0; i < kNumJoints; ++i) {
+    static constexpr const char* kHomeKey[] = {"d1_m", "q2_deg", "q3_deg", "q4_deg"};
+    const double scale = i == 0 ? 1.0 : kDegPerRad;
+    const JointLimit& l = m.limits[i];
     if (!l.contains(m.home[i])) {
-      return invalid(fmt::format("home.{} = {}: outside the joint limits [{}, {}]", kJoint[i],
-                                 m.home[i], l.min, l.max));
+      return invalid(fmt::format("home.{} = {}: outside the joint limits [{}, {}]", kHomeKey[i],
+                                 m.home[i] * scale, l.min * scale, l.max * scale));
     }
   }
   if (m.dh[1].a_m <= 0.0 || m.dh[2].a_m <= 0.0) {
@@ -90,12 +98,12 @@ Status validate(const RobotModel& m) {
   for (const Named& n : {Named{"motors.z", &m.motors.z}, Named{"motors.j2", &m.motors.j2},
                          Named{"motors.j3", &m.motors.j3}}) {
     if (!finite_positive(n.axis->steps_per_unit)) {
-      return invalid(fmt::format("{}.steps_per_unit = {}: must be > 0", n.name,
-                                 n.axis->steps_per_unit));
+      return invalid(
+          fmt::format("{}.steps_per_unit = {}: must be > 0", n.name, n.axis->steps_per_unit));
     }
     if (!finite_positive(n.axis->max_speed_steps_s)) {
-      return invalid(fmt::format("{}.max_speed_steps_s = {}: must be > 0", n.name,
-                                 n.axis->max_speed_steps_s));
+      return invalid(
+          fmt::format("{}.max_speed_steps_s = {}: must be > 0", n.name, n.axis->max_speed_steps_s));
     }
     if (!finite_positive(n.axis->max_accel_steps_s2)) {
       return invalid(fmt::format("{}.max_accel_steps_s2 = {}: must be > 0", n.name,
@@ -105,29 +113,31 @@ Status validate(const RobotModel& m) {
   if (!std::isfinite(m.motors.j3_per_j2_coupling)) {
     return invalid("motors.j3_per_j2_coupling must be finite");
   }
-  for (const auto& [name, s] :
-       {std::pair{"motors.wrist", &m.motors.wrist}, std::pair{"motors.gripper", &m.motors.gripper}}) {
+  for (const auto& [name, s] : {std::pair{"motors.wrist", &m.motors.wrist},
+                                std::pair{"motors.gripper", &m.motors.gripper}}) {
     if (!(s->min_deg < s->max_deg) || !(s->pulse_min_us < s->pulse_max_us) ||
         s->pulse_min_us < 200 || s->pulse_max_us > 3000 || !finite_positive(s->max_speed_deg_s)) {
-      return invalid(fmt::format(
-          "{}: needs min_deg < max_deg, 200 <= pulse_min_us < pulse_max_us <= 3000 and "
-          "max_speed_deg_s > 0",
-          name));
+      return invalid(
+          fmt::format("{}: needs min_deg < max_deg, 200 <= pulse_min_us < pulse_max_us <= 3000 and "
+                      "max_speed_deg_s > 0",
+                      name));
     }
   }
   const double wrist_min = deg_to_rad(m.motors.wrist.min_deg);
   const double wrist_max = deg_to_rad(m.motors.wrist.max_deg);
   if (m.limits[3].min < wrist_min - 1e-9 || m.limits[3].max > wrist_max + 1e-9) {
-    return invalid(fmt::format("limits.j4 [{}, {}] deg must lie inside the wrist servo range "
-                               "[{}, {}] deg",
-                               rad_to_deg(m.limits[3].min), rad_to_deg(m.limits[3].max),
-                               m.motors.wrist.min_deg, m.motors.wrist.max_deg));
+    return invalid(
+        fmt::format("limits.j4 [{}, {}] deg must lie inside the wrist servo range "
+                    "[{}, {}] deg",
+                    rad_to_deg(m.limits[3].min), rad_to_deg(m.limits[3].max),
+                    m.motors.wrist.min_deg, m.motors.wrist.max_deg));
   }
   for (double g : {m.motors.gripper_open_deg, m.motors.gripper_closed_deg}) {
     if (g < m.motors.gripper.min_deg || g > m.motors.gripper.max_deg) {
-      return invalid(fmt::format("motors.gripper open/closed angle {} deg is outside the servo "
-                                 "range [{}, {}]",
-                                 g, m.motors.gripper.min_deg, m.motors.gripper.max_deg));
+      return invalid(
+          fmt::format("motors.gripper open/closed angle {} deg is outside the servo "
+                      "range [{}, {}]",
+                      g, m.motors.gripper.min_deg, m.motors.gripper.max_deg));
     }
   }
   const SceneModel& s = m.scene;

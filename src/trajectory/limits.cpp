@@ -48,8 +48,7 @@ Status check_limits(const RobotModel& model, const JointTrajectory& traj, double
         return Error{static_cast<int>(PlanError::kMotorLimit),
                      fmt::format("sample {} (t = {:.3f} s): motor {} at {:.1f} steps/s^2 exceeds "
                                  "its acceleration limit {:.1f} steps/s^2",
-                                 k, s.t_s, kMotor[i], std::abs(a[i]),
-                                 axes[i]->max_accel_steps_s2)};
+                                 k, s.t_s, kMotor[i], std::abs(a[i]), axes[i]->max_accel_steps_s2)};
       }
     }
     if (std::abs(v[3]) > model.motors.wrist.max_speed_deg_s * (1.0 + tolerance)) {

@@ -31,13 +31,13 @@ Result<JointTrajectory> plan_line(const RobotModel& model, const JointVector& q0
     return Error{static_cast<int>(PlanError::kBadArgument), std::move(m)};
   };
   if (!(o.max_step_m > 0.0) || !(o.dt_s > 0.0 && o.dt_s <= 1.0)) {
-    return bad(fmt::format("line step {} m / dt {} s: both must be > 0 (dt <= 1 s)",
-                           o.max_step_m, o.dt_s));
+    return bad(fmt::format("line step {} m / dt {} s: both must be > 0 (dt <= 1 s)", o.max_step_m,
+                           o.dt_s));
   }
   if (!(o.speed_scale > 0.0 && o.speed_scale <= 1.0) ||
       !(o.accel_scale > 0.0 && o.accel_scale <= 1.0)) {
-    return bad(fmt::format("speed/accel scale {}/{}: must be in (0, 1]", o.speed_scale,
-                           o.accel_scale));
+    return bad(
+        fmt::format("speed/accel scale {}/{}: must be in (0, 1]", o.speed_scale, o.accel_scale));
   }
   if (int j = first_joint_outside_limits(model, q0); j >= 0) {
     return Error{static_cast<int>(PlanError::kJointLimit),
@@ -50,7 +50,8 @@ Result<JointTrajectory> plan_line(const RobotModel& model, const JointVector& q0
     return Error{static_cast<int>(IkError::kNotFinite), "line goal is not finite"};
   }
   const int n = std::max(
-      2, static_cast<int>(std::ceil(std::max(len / o.max_step_m, std::abs(dyaw) / kMaxYawStepRad))));
+      2,
+      static_cast<int>(std::ceil(std::max(len / o.max_step_m, std::abs(dyaw) / kMaxYawStepRad))));
   if (n > 2000000) return bad(fmt::format("line needs {} samples: step too small", n));
   JointTrajectory out;
   if (len == 0.0 && dyaw == 0.0) {
@@ -73,11 +74,11 @@ Result<JointTrajectory> plan_line(const RobotModel& model, const JointVector& q0
     }
     for (int j = 1; j < kNumJoints; ++j) {
       if (std::abs((*q)[j] - dense[k - 1][j]) > kMaxJumpRad) {
-        return Error{static_cast<int>(PlanError::kDiscontinuous),
-                     fmt::format("line sample {} of {} at ({:.4f}, {:.4f}) m: {} would jump by "
-                                 "{:.1f} deg (singularity or joint wrap); plan a joint move",
-                                 k, n, p.x_m, p.y_m, joint_name(j),
-                                 rad_to_deg((*q)[j] - dense[k - 1][j]))};
+        return Error{
+            static_cast<int>(PlanError::kDiscontinuous),
+            fmt::format("line sample {} of {} at ({:.4f}, {:.4f}) m: {} would jump by "
+                        "{:.1f} deg (singularity or joint wrap); plan a joint move",
+                        k, n, p.x_m, p.y_m, joint_name(j), rad_to_deg((*q)[j] - dense[k - 1][j]))};
       }
     }
     dense[k] = *q;

@@ -28,10 +28,10 @@ Status check_endpoints(const RobotModel& model, const JointVector& q0, const Joi
       }
     }
     if (int j = first_joint_outside_limits(model, *q); j >= 0) {
-      return plan_error(PlanError::kJointLimit,
-                        fmt::format("{} {} = {} is outside its limits [{}, {}]",
-                                    q == &q0 ? "start" : "goal", joint_name(j), (*q)[j],
-                                    model.limits[j].min, model.limits[j].max));
+      return plan_error(
+          PlanError::kJointLimit,
+          fmt::format("{} {} = {} is outside its limits [{}, {}]", q == &q0 ? "start" : "goal",
+                      joint_name(j), (*q)[j], model.limits[j].min, model.limits[j].max));
     }
   }
   return Ok{};
@@ -72,8 +72,7 @@ JointTrajectory quintic(const JointVector& q0, const JointVector& q1, double dur
   return out;
 }
 
-double quintic_min_duration(const RobotModel& model, const JointVector& q0,
-                            const JointVector& q1) {
+double quintic_min_duration(const RobotModel& model, const JointVector& q0, const JointVector& q1) {
   const auto dm = motor_deltas(model, q0, q1);
   const StepperAxis* axes[] = {&model.motors.z, &model.motors.j2, &model.motors.j3};
   double t = 0.0;
@@ -93,9 +92,9 @@ Result<JointTrajectory> plan_quintic(const RobotModel& model, const JointVector&
                       fmt::format("samples = {}: must be between 2 and 1000000", options.samples));
   }
   if (!std::isfinite(options.duration_s) || options.duration_s < 0.0) {
-    return plan_error(PlanError::kBadArgument,
-                      fmt::format("duration = {} s: must be >= 0 (0 = shortest)",
-                                  options.duration_s));
+    return plan_error(
+        PlanError::kBadArgument,
+        fmt::format("duration = {} s: must be >= 0 (0 = shortest)", options.duration_s));
   }
   if (Status s = check_endpoints(model, q0, q1); !s) return s.error();
   const double t_min = quintic_min_duration(model, q0, q1);
@@ -119,14 +118,13 @@ Result<JointTrajectory> plan_quintic(const RobotModel& model, const JointVector&
 Result<JointTrajectory> plan_trapezoid(const RobotModel& model, const JointVector& q0,
                                        const JointVector& q1, const TrapezoidOptions& o) {
   if (!(o.dt_s > 0.0 && o.dt_s <= 1.0)) {
-    return plan_error(PlanError::kBadArgument,
-                      fmt::format("dt = {} s: must be in (0, 1]", o.dt_s));
+    return plan_error(PlanError::kBadArgument, fmt::format("dt = {} s: must be in (0, 1]", o.dt_s));
   }
   if (!(o.speed_scale > 0.0 && o.speed_scale <= 1.0) ||
       !(o.accel_scale > 0.0 && o.accel_scale <= 1.0)) {
-    return plan_error(PlanError::kBadArgument,
-                      fmt::format("speed/accel scale {}/{}: must be in (0, 1]", o.speed_scale,
-                                  o.accel_scale));
+    return plan_error(
+        PlanError::kBadArgument,
+        fmt::format("speed/accel scale {}/{}: must be in (0, 1]", o.speed_scale, o.accel_scale));
   }
   if (Status s = check_endpoints(model, q0, q1); !s) return s.error();
   const auto dm = motor_deltas(model, q0, q1);
@@ -139,8 +137,8 @@ Result<JointTrajectory> plan_trapezoid(const RobotModel& model, const JointVecto
     v = std::min(v, o.speed_scale * axes[i]->max_speed_steps_s / d);
     a = std::min(a, o.accel_scale * axes[i]->max_accel_steps_s2 / d);
   }
-  if (dm[3] != 0.0) v = std::min(v, o.speed_scale * model.motors.wrist.max_speed_deg_s /
-                                         std::abs(dm[3]));
+  if (dm[3] != 0.0)
+    v = std::min(v, o.speed_scale * model.motors.wrist.max_speed_deg_s / std::abs(dm[3]));
   JointTrajectory out;
   if (v == INFINITY) {  // no motion
     out.samples.push_back(JointSample{0.0, q0, {}, {}});
@@ -171,9 +169,9 @@ Result<JointTrajectory> plan_via_points(const RobotModel& model,
                                         const std::vector<JointVector>& points,
                                         const ViaOptions& options) {
   if (points.size() < 2) {
-    return plan_error(PlanError::kBadArgument,
-                      fmt::format("a via-point path needs at least 2 points, got {}",
-                                  points.size()));
+    return plan_error(
+        PlanError::kBadArgument,
+        fmt::format("a via-point path needs at least 2 points, got {}", points.size()));
   }
   JointTrajectory out;
   for (size_t i = 0; i + 1 < points.size(); ++i) {

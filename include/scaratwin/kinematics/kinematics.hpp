@@ -58,8 +58,7 @@ Result<IkSolutions> inverse_all(const RobotModel& model, const ToolPose& pose,
                                 const JointVector& seed);
 
 // The solution inside the limits nearest to `seed` (the current joint state).
-Result<JointVector> inverse(const RobotModel& model, const ToolPose& pose,
-                            const JointVector& seed);
+Result<JointVector> inverse(const RobotModel& model, const ToolPose& pose, const JointVector& seed);
 
 // Analytic Jacobian d(x, y, z, yaw) / d(d1, q2, q3, q4) at q.
 Eigen::Matrix4d jacobian(const RobotModel& model, const JointVector& q);

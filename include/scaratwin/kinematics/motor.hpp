@@ -26,8 +26,8 @@ std::array<std::int32_t, kNumSteppers> joints_to_steps(const RobotModel& model,
                                                        const JointVector& q);
 
 // Joint state from motor steps and the wrist servo angle.
-JointVector motors_to_joints(const RobotModel& model,
-                             const std::array<double, kNumSteppers>& steps, double wrist_deg);
+JointVector motors_to_joints(const RobotModel& model, const std::array<double, kNumSteppers>& steps,
+                             double wrist_deg);
 
 // Steps per joint unit of each stepper and its joint index (Z->d1, J2->q2, J3->q3).
 double steps_per_unit(const RobotModel& model, int stepper);

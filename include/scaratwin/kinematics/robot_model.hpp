@@ -88,10 +88,10 @@ struct CameraModel {
 
 // The work scene, in the robot base frame (z = 0 at the base; the table top below it).
 struct SceneModel {
-  double table_z_m = -0.04;       // table top height
-  double cube_size_m = 0.02;      // edge length of the cubes
-  double grasp_z_m = -0.02;       // tool z at which a cube on the table is grasped
-  double approach_height_m = 0.04;  // clearance above pick/place points
+  double table_z_m = -0.04;              // table top height
+  double cube_size_m = 0.02;             // edge length of the cubes
+  double grasp_z_m = -0.02;              // tool z at which a cube on the table is grasped
+  double approach_height_m = 0.04;       // clearance above pick/place points
   std::array<Tray, kNumColors> trays{};  // indexed by CubeColor
   CameraModel camera;
 };

@@ -54,8 +54,8 @@ JointTrajectory quintic(const JointVector& q0, const JointVector& q1, double dur
 double quintic_min_duration(const RobotModel& model, const JointVector& q0, const JointVector& q1);
 
 struct QuinticOptions {
-  int samples = 60;          // the paper's 60 samples
-  double duration_s = 0.0;   // 0: the shortest duration that honours the motor limits
+  int samples = 60;         // the paper's 60 samples
+  double duration_s = 0.0;  // 0: the shortest duration that honours the motor limits
 };
 Result<JointTrajectory> plan_quintic(const RobotModel& model, const JointVector& q0,
                                      const JointVector& q1, const QuinticOptions& options = {});
@@ -98,10 +98,10 @@ Result<JointTrajectory> plan_line(const RobotModel& model, const JointVector& q0
 // joint space to above the place point, descend, release, retreat. One timed trajectory with
 // the gripper events.
 struct PickPlaceRequest {
-  ToolPose pick;                 // tool pose at which the object is gripped
-  ToolPose place;                // tool pose at which it is released
+  ToolPose pick;   // tool pose at which the object is gripped
+  ToolPose place;  // tool pose at which it is released
   double approach_height_m = 0.04;
-  double grip_dwell_s = 0.4;     // time standing still while the gripper closes or opens
+  double grip_dwell_s = 0.4;  // time standing still while the gripper closes or opens
   double speed_scale = 1.0;
   double accel_scale = 1.0;
   double dt_s = 0.01;
