@@ -1,0 +1,588 @@
+// Packet codec core: code tables, streaming decoder and encoder (docs/protocol.md).
+// C++14 subset shared with the firmware: see codec_core.h.
+#include "scaratwin/protocol/codec_core.h"
+
+#include <string.h>
+
+namespace scaratwin {
+namespace protocol {
+namespace core {
+
+// code tables -------------------------------------------------------------------------------
+
+namespace {
+
+const CodeSpec kSerialHostToDeviceCodes[] = {
+    make_code('H', 'I', 1, "i"),        // proto_version
+    make_code('P', 'I', 0, "i"),        // [token]
+    make_code('S', 'R', 1, "i"),        // rate_hz
+    make_code('Q', 'S', 0, ""),         //
+    make_code('H', 'M', 0, ""),         //
+    make_code('T', 'B', 1, "i"),        // n
+    make_code('T', 'P', 6, "iiiiiii"),  // seq dt_ms z j2 j3 wrist_cdeg [grip_cdeg]
+    make_code('G', 'R', 1, "i"),        // grip_cdeg
+    make_code('J', 'G', 2, "ii"),       // axis delta
+    make_code('S', 'P', 0, ""),         //
+    make_code('C', 'F', 1, "ii"),       // key [value]
+};
+
+const CodeSpec kSerialDeviceToHostCodes[] = {
+    make_code('H', 'I', 3, "itt"),        // proto_version device fw_version
+    make_code('S', 'T', 9, "iuiiiiiii"),  // seq t_us z j2 j3 wrist grip flags queue_free
+    make_code('A', 'K', 1, "ti"),         // code [value]
+    make_code('E', 'R', 1, "ii"),         // err_code [detail]
+    make_code('E', 'V', 1, "ii"),         // event [value]
+};
+
+const CodeSpec kTcpHubToSimCodes[] = {
+    make_code('H', 'I', 1, "i"),       // proto_version
+    make_code('P', 'I', 0, "i"),       // [token]
+    make_code('J', 'D', 6, "iudddd"),  // seq t_us d1_mm q2_deg q3_deg q4_deg
+    make_code('T', 'J', 6, "iudddd"),  // seq t_us d1_mm q2_deg q3_deg q4_deg
+    make_code('M', 'D', 1, "t"),       // mode
+    make_code('G', 'R', 1, "i"),       // state
+    make_code('C', 'S', 0, "ii"),      // [width_px height_px]
+    make_code('S', 'C', 3, "tdd"),     // color x_mm y_mm
+    make_code('R', 'S', 0, ""),        //
+    make_code('O', 'P', 0, "i"),       // [id]
+    make_code('Q', 'S', 0, ""),        //
+    make_code('S', 'P', 0, ""),        //
+};
+
+const CodeSpec kTcpSimToHubCodes[] = {
+    make_code('H', 'I', 3, "itt"),                 // proto_version device version
+    make_code('J', 'A', 2, "iu"),                  // seq t_apply_us
+    make_code('G', 'R', 2, "ii"),                  // state held_id
+    make_code('I', 'M', 1, "i", kCodeHasPayload),  // nbytes, then the PNG bytes
+    make_code('O', 'P', 6, "itdddd"),              // id color x_mm y_mm z_mm yaw_deg
+    make_code('S', 'T', 9, "iuddddiit"),           // seq t_us d1 q2 q3 q4 grip held_id mode
+    make_code('J', 'W', 2, "id"),                  // joint value
+    make_code('A', 'K', 1, "ti"),                  // code [value]
+    make_code('E', 'R', 1, "ii"),                  // err_code [detail]
+};
+
+template <typename T, size_t N>
+constexpr uint8_t count_of(const T (&)[N]) {
+  return static_cast<uint8_t>(N);
+}
+
+}  // namespace
+
+const LinkSpec kSerialHostToDevice = {
+    '=', 1, kSerialMaxLine, 0, kSerialHostToDeviceCodes, count_of(kSerialHostToDeviceCodes)};
+const LinkSpec kSerialDeviceToHost = {
+    '=', 0, kSerialMaxLine, 0, kSerialDeviceToHostCodes, count_of(kSerialDeviceToHostCodes)};
+const LinkSpec kTcpHubToSim = {
+    ',', 0, kTcpMaxLine, 0, kTcpHubToSimCodes, count_of(kTcpHubToSimCodes)};
+const LinkSpec kTcpSimToHub = {
+    ',', 0, kTcpMaxLine, kMaxImageBytes, kTcpSimToHubCodes, count_of(kTcpSimToHubCodes)};
+
+const CodeSpec* find_code(const LinkSpec& link, uint16_t code) {
+  for (uint8_t i = 0; i < link.code_count; ++i) {
+    if (link.codes[i].code == code) return &link.codes[i];
+  }
+  return NULL;
+}
+
+const char* error_name(uint8_t code) {
+  switch (code) {
+    case kErrNone:
+      return "none";
+    case kErrLineTooLong:
+      return "line_too_long";
+    case kErrBadCharacter:
+      return "bad_character";
+    case kErrUnknownCode:
+      return "unknown_code";
+    case kErrWrongFieldCount:
+      return "wrong_field_count";
+    case kErrBadNumber:
+      return "bad_number";
+    case kErrQueueFull:
+      return "queue_full";
+    case kErrNotHomed:
+      return "not_homed";
+    case kErrJointLimit:
+      return "joint_limit";
+    case kErrBusy:
+      return "busy";
+    case kErrSequence:
+      return "sequence";
+    case kErrBadValue:
+      return "bad_value";
+    case kErrPayloadTooLarge:
+      return "payload_too_large";
+    case kErrVersion:
+      return "version";
+    case kErrHalted:
+      return "halted";
+    case kErrInternal:
+      return "internal";
+    case kErrTimeout:
+      return "timeout";
+    case kErrDisconnected:
+      return "disconnected";
+    default:
+      return "unknown";
+  }
+}
+
+// character classes -------------------------------------------------------------------------
+
+namespace {
+
+inline bool is_digit(char c) { return c >= '0' && c <= '9'; }
+inline bool is_upper(char c) { return c >= 'A' && c <= 'Z'; }
+inline bool is_text_char(char c) {
+  return (c >= 'a' && c <= 'z') || is_upper(c) || is_digit(c) || c == '_' || c == '.' || c == '-';
+}
+// A byte that may appear in a line at all: printable ASCII without space.
+inline bool is_graphic(char c) {
+  return static_cast<uint8_t>(c) > 0x20 && static_cast<uint8_t>(c) < 0x7f;
+}
+
+const uint32_t kPow10[10] = {1UL,      10UL,      100UL,      1000UL,      10000UL,
+                             100000UL, 1000000UL, 10000000UL, 100000000UL, 1000000000UL};
+
+// Parses an integer field: ["-"] 1*DIGIT within the kind's range. Returns false on any error.
+bool parse_int(const char* s, uint16_t n, FieldKind kind, int32_t* out) {
+  uint16_t i = 0;
+  bool negative = false;
+  if (n > 0 && s[0] == '-') {
+    negative = true;
+    i = 1;
+  }
+  if (i == n) return false;
+  uint32_t acc = 0;
+  for (; i < n; ++i) {
+    const char c = s[i];
+    if (!is_digit(c)) return false;
+    const uint32_t d = static_cast<uint32_t>(c - '0');
+    if (acc > 429496729UL || (acc == 429496729UL && d > 5)) return false;
+    acc = acc * 10u + d;
+  }
+  if (kind == kFieldU32) {
+    if (negative && acc != 0) return false;
+    *out = static_cast<int32_t>(acc);
+    return true;
+  }
+  if (negative) {
+    if (acc > 2147483648UL) return false;
+    *out = static_cast<int32_t>(0u - acc);
+  } else {
+    if (acc > 2147483647UL) return false;
+    *out = static_cast<int32_t>(acc);
+  }
+  return true;
+}
+
+// Checks a decimal field: ["-"] 1*DIGIT ["." 1*DIGIT], <= 9 significant integer digits and
+// <= 6 fraction digits.
+bool check_decimal(const char* s, uint16_t n) {
+  uint16_t i = 0;
+  if (n > 0 && s[0] == '-') i = 1;
+  const uint16_t int_start = i;
+  uint8_t significant = 0;
+  for (; i < n && is_digit(s[i]); ++i) {
+    if (significant > 0 || s[i] != '0') {
+      if (++significant > 9) return false;
+    }
+  }
+  if (i == int_start) return false;
+  if (i == n) return true;
+  if (s[i] != '.') return false;
+  const uint16_t frac_start = ++i;
+  for (; i < n; ++i) {
+    if (!is_digit(s[i])) return false;
+  }
+  const uint16_t frac = static_cast<uint16_t>(n - frac_start);
+  return frac >= 1 && frac <= 6;
+}
+
+}  // namespace
+
+// packet ------------------------------------------------------------------------------------
+
+bool Packet::text_equals(uint8_t i, const char* s) const {
+  const size_t n = strlen(s);
+  return n == field_length[i] && memcmp(line + field_offset[i], s, n) == 0;
+}
+
+bool Packet::fixed(uint8_t i, uint8_t decimals, int32_t* out) const {
+  if (i >= field_count || decimals > 9) return false;
+  const char* s = text(i);
+  const uint16_t n = field_length[i];
+  uint16_t k = 0;
+  bool negative = false;
+  if (n > 0 && s[0] == '-') {
+    negative = true;
+    k = 1;
+  }
+  uint32_t acc = 0;
+  for (; k < n && is_digit(s[k]); ++k) {
+    const uint32_t d = static_cast<uint32_t>(s[k] - '0');
+    if (acc > 429496729UL || (acc == 429496729UL && d > 5)) return false;
+    acc = acc * 10u + d;
+  }
+  // integer part times 10^decimals, then the fraction digits, then rounding.
+  if (acc > 4294967295UL / kPow10[decimals]) return false;
+  acc *= kPow10[decimals];
+  uint32_t frac = 0;
+  uint8_t taken = 0;
+  bool round_up = false;
+  if (k < n && s[k] == '.') {
+    for (++k; k < n && is_digit(s[k]); ++k) {
+      if (taken < decimals) {
+        frac = frac * 10u + static_cast<uint32_t>(s[k] - '0');
+        ++taken;
+      } else if (taken == decimals) {
+        round_up = s[k] >= '5';
+        ++taken;
+      }
+    }
+  }
+  for (; taken < decimals; ++taken) frac *= 10u;
+  if (round_up) ++frac;
+  if (acc > 4294967295UL - frac) return false;
+  acc += frac;
+  if (negative) {
+    if (acc > 2147483648UL) return false;
+    *out = static_cast<int32_t>(0u - acc);
+  } else {
+    if (acc > 2147483647UL) return false;
+    *out = static_cast<int32_t>(acc);
+  }
+  return true;
+}
+
+// decoder -----------------------------------------------------------------------------------
+
+Decoder::Decoder(const LinkSpec& link, char* buffer, uint16_t capacity)
+    : link_(&link), buffer_(buffer), fill_(0), mode_(kLine), payload_left_(0) {
+  const uint16_t by_link = link.max_line > 0 ? static_cast<uint16_t>(link.max_line - 1) : 0;
+  limit_ = capacity < by_link ? capacity : by_link;
+  memset(&packet_, 0, sizeof(packet_));
+  packet_.line = buffer_;
+}
+
+void Decoder::reset() {
+  fill_ = 0;
+  mode_ = kLine;
+  payload_left_ = 0;
+}
+
+bool Decoder::fail(Event* event, uint8_t error, int32_t detail, uint16_t code) {
+  event->type = kEventError;
+  event->error = error;
+  event->detail = detail;
+  event->code = code;
+  return true;
+}
+
+size_t Decoder::feed(const uint8_t* data, size_t length, Event* event) {
+  event->type = kEventNone;
+  size_t pos = 0;
+  while (pos < length) {
+    if (mode_ == kPayload || mode_ == kSkipPayload) {
+      size_t n = length - pos;
+      if (n > payload_left_) n = static_cast<size_t>(payload_left_);
+      payload_left_ -= static_cast<uint32_t>(n);
+      const size_t start = pos;
+      pos += n;
+      const bool deliver = mode_ == kPayload;
+      if (payload_left_ == 0) mode_ = kLine;
+      if (deliver) {
+        event->type = kEventPayload;
+        event->payload = data + start;
+        event->payload_length = n;
+        event->payload_left = payload_left_;
+        return pos;
+      }
+      continue;
+    }
+    if (link_->realtime) {
+      // serial: byte by byte, real-time bytes are taken out wherever they occur.
+      const char c = static_cast<char>(data[pos++]);
+      if (c == kRealtimeStop || c == kRealtimeHold || c == kRealtimeResume) {
+        event->type = kEventRealtime;
+        event->realtime = c;
+        return pos;
+      }
+      if (c == '\n') {
+        if (mode_ == kDiscard) {
+          mode_ = kLine;
+          continue;
+        }
+        if (finish_line(event)) return pos;
+        continue;
+      }
+      if (mode_ == kDiscard) continue;
+      if (fill_ >= limit_) {
+        fill_ = 0;
+        mode_ = kDiscard;
+        fail(event, kErrLineTooLong, limit_ + 1, 0);
+        return pos;
+      }
+      buffer_[fill_++] = c;
+      continue;
+    }
+    // bulk: find the end of the line and copy up to it.
+    const uint8_t* nl = static_cast<const uint8_t*>(memchr(data + pos, '\n', length - pos));
+    const size_t end = nl ? static_cast<size_t>(nl - data) : length;
+    if (mode_ == kDiscard) {
+      pos = end;
+      if (nl) {
+        ++pos;
+        mode_ = kLine;
+      }
+      continue;
+    }
+    const size_t chunk = end - pos;
+    if (chunk > static_cast<size_t>(limit_ - fill_)) {
+      fill_ = 0;
+      if (nl) {
+        pos = end + 1;
+      } else {
+        pos = length;
+        mode_ = kDiscard;
+      }
+      fail(event, kErrLineTooLong, limit_ + 1, 0);
+      return pos;
+    }
+    memcpy(buffer_ + fill_, data + pos, chunk);
+    fill_ = static_cast<uint16_t>(fill_ + chunk);
+    pos = end;
+    if (nl) {
+      ++pos;
+      if (finish_line(event)) return pos;
+    }
+  }
+  return pos;
+}
+
+bool Decoder::finish_line(Event* event) {
+  uint16_t n = fill_;
+  fill_ = 0;
+  if (n > 0 && buffer_[n - 1] == '\r') --n;
+  if (n == 0) return false;  // empty line: ignored
+  if (!validate(n, event)) return false;
+  if (event->type == kEventPacket && (packet_.spec->flags & kCodeHasPayload)) {
+    const int32_t bytes = packet_.value[0];
+    if (bytes < 0) return fail(event, kErrBadNumber, 0, packet_.code);
+    if (static_cast<uint32_t>(bytes) > link_->max_payload) {
+      payload_left_ = static_cast<uint32_t>(bytes);
+      mode_ = payload_left_ > 0 ? kSkipPayload : kLine;
+      return fail(event, kErrPayloadTooLarge, static_cast<int32_t>(link_->max_payload),
+                  packet_.code);
+    }
+    payload_left_ = static_cast<uint32_t>(bytes);
+    mode_ = payload_left_ > 0 ? kPayload : kLine;
+  }
+  return true;
+}
+
+// Validates the line buffer_[0, n) and fills packet_. Always produces an event; returns true.
+bool Decoder::validate(uint16_t n, Event* event) {
+  const char* s = buffer_;
+  const char delim = link_->delimiter;
+  // any byte that can never be in a packet.
+  for (uint16_t i = 0; i < n; ++i) {
+    if (!is_graphic(s[i])) return fail(event, kErrBadCharacter, i, 0);
+  }
+  if (n < 3 || !is_upper(s[0]) || !is_upper(s[1]) || s[2] != delim) {
+    uint16_t bad = 0;
+    if (is_upper(s[0])) bad = (n > 1 && is_upper(s[1])) ? 2 : 1;
+    return fail(event, kErrBadCharacter, bad, 0);
+  }
+  const uint16_t code = code_id(s[0], s[1]);
+  const CodeSpec* spec = find_code(*link_, code);
+  if (spec == NULL) return fail(event, kErrUnknownCode, 0, code);
+  if (s[n - 1] != delim) return fail(event, kErrBadCharacter, n, code);
+  // split at the delimiters.
+  uint8_t count = 0;
+  uint16_t start = 3;
+  for (uint16_t i = 3; i < n; ++i) {
+    if (s[i] != delim) continue;
+    if (count < kMaxFields) {
+      packet_.field_offset[count] = start;
+      packet_.field_length[count] = static_cast<uint16_t>(i - start);
+    }
+    if (count < 255) ++count;
+    start = static_cast<uint16_t>(i + 1);
+  }
+  if (count < spec->min_fields || count > spec->max_fields) {
+    return fail(event, kErrWrongFieldCount, count, code);
+  }
+  for (uint8_t f = 0; f < count; ++f) {
+    const char* field = s + packet_.field_offset[f];
+    const uint16_t len = packet_.field_length[f];
+    const FieldKind kind = field_kind(*spec, f);
+    if (kind == kFieldText) {
+      if (len == 0 || len > kMaxTextLength) {
+        const uint16_t at = len == 0 ? 0 : kMaxTextLength;
+        return fail(event, kErrBadCharacter, packet_.field_offset[f] + at, code);
+      }
+      for (uint16_t i = 0; i < len; ++i) {
+        if (!is_text_char(field[i])) {
+          return fail(event, kErrBadCharacter, packet_.field_offset[f] + i, code);
+        }
+      }
+      packet_.value[f] = 0;
+    } else if (kind == kFieldDec) {
+      if (!check_decimal(field, len)) return fail(event, kErrBadNumber, f, code);
+      packet_.value[f] = 0;
+    } else {
+      if (!parse_int(field, len, kind, &packet_.value[f])) {
+        return fail(event, kErrBadNumber, f, code);
+      }
+    }
+  }
+  packet_.code = code;
+  packet_.spec = spec;
+  packet_.field_count = count;
+  packet_.line = s;
+  packet_.line_length = n;
+  event->type = kEventPacket;
+  return true;
+}
+
+// encoder -----------------------------------------------------------------------------------
+
+Encoder::Encoder(const LinkSpec& link, char* buffer, size_t capacity)
+    : link_(&link),
+      buffer_(buffer),
+      capacity_(capacity),
+      size_(0),
+      packet_start_(0),
+      code_(0),
+      fields_(0),
+      error_(kErrNone),
+      packet_error_(kErrNone) {}
+
+void Encoder::put(char c) {
+  if (size_ >= capacity_) {
+    if (packet_error_ == kErrNone) packet_error_ = kErrLineTooLong;
+    return;
+  }
+  buffer_[size_++] = c;
+}
+
+void Encoder::put_digits(uint32_t v, uint8_t min_digits) {
+  char tmp[10];
+  uint8_t n = 0;
+  do {
+    tmp[n++] = static_cast<char>('0' + static_cast<char>(v % 10u));
+    v /= 10u;
+  } while (v != 0 && n < 10);
+  while (n < min_digits && n < 10) tmp[n++] = '0';
+  while (n > 0) put(tmp[--n]);
+}
+
+void Encoder::begin(uint16_t code) {
+  packet_start_ = size_;
+  packet_error_ = kErrNone;
+  code_ = code;
+  fields_ = 0;
+  put(static_cast<char>(code >> 8));
+  put(static_cast<char>(code & 0xff));
+  put(link_->delimiter);
+}
+
+void Encoder::start_field() {
+  if (fields_ >= kMaxFields && packet_error_ == kErrNone) packet_error_ = kErrWrongFieldCount;
+  ++fields_;
+}
+
+void Encoder::end_field() { put(link_->delimiter); }
+
+void Encoder::add_i32(int32_t v) {
+  start_field();
+  if (v < 0) {
+    put('-');
+    put_digits(0u - static_cast<uint32_t>(v), 1);
+  } else {
+    put_digits(static_cast<uint32_t>(v), 1);
+  }
+  end_field();
+}
+
+void Encoder::add_u32(uint32_t v) {
+  start_field();
+  put_digits(v, 1);
+  end_field();
+}
+
+void Encoder::add_fixed(int32_t scaled, uint8_t decimals) {
+  start_field();
+  if (decimals > 9) {
+    if (packet_error_ == kErrNone) packet_error_ = kErrBadValue;
+    return;
+  }
+  const uint32_t magnitude =
+      scaled < 0 ? 0u - static_cast<uint32_t>(scaled) : static_cast<uint32_t>(scaled);
+  const uint32_t whole = magnitude / kPow10[decimals];
+  uint32_t frac = magnitude % kPow10[decimals];
+  while (decimals > 0 && frac % 10u == 0) {
+    frac /= 10u;
+    --decimals;
+  }
+  if (scaled < 0) put('-');
+  put_digits(whole, 1);
+  if (decimals > 0) {
+    put('.');
+    put_digits(frac, decimals);
+  }
+  end_field();
+}
+
+void Encoder::add_text(const char* text, size_t length) {
+  start_field();
+  if (length == 0 || length > kMaxTextLength) {
+    if (packet_error_ == kErrNone) packet_error_ = kErrBadValue;
+    return;
+  }
+  for (size_t i = 0; i < length; ++i) {
+    if (!is_text_char(text[i])) {
+      if (packet_error_ == kErrNone) packet_error_ = kErrBadValue;
+      return;
+    }
+    put(text[i]);
+  }
+  end_field();
+}
+
+void Encoder::add_text(const char* text) { add_text(text, strlen(text)); }
+
+bool Encoder::end() {
+  put('\n');
+  if (packet_error_ == kErrNone) {
+    const CodeSpec* spec = find_code(*link_, code_);
+    if (spec == NULL) {
+      packet_error_ = kErrUnknownCode;
+    } else if (fields_ < spec->min_fields || fields_ > spec->max_fields) {
+      packet_error_ = kErrWrongFieldCount;
+    } else if (size_ - packet_start_ > link_->max_line) {
+      packet_error_ = kErrLineTooLong;
+    }
+  }
+  if (packet_error_ != kErrNone) {
+    if (error_ == kErrNone) error_ = packet_error_;
+    size_ = packet_start_;
+    return false;
+  }
+  return true;
+}
+
+bool Encoder::add_raw(const uint8_t* data, size_t length) {
+  if (length > capacity_ - size_) {
+    if (error_ == kErrNone) error_ = kErrLineTooLong;
+    return false;
+  }
+  memcpy(buffer_ + size_, data, length);
+  size_ += length;
+  return true;
+}
+
+}  // namespace core
+}  // namespace protocol
+}  // namespace scaratwin
