@@ -1,0 +1,52 @@
+// The MuJoCo model of the virtual robot, generated from the robot description so that the
+// simulator can never disagree with the kinematics: column, Z carriage, two arm links, wrist, a
+// two-finger gripper, the table, one sorting tray per colour, the fixed overhead camera and a
+// pool of cubes per colour (MuJoCo 2.2 cannot add bodies at run time, so unused cubes are
+// parked far away). Also a URDF of the arm for other tools. Pure: returns text, no I/O.
+//
+// Frames: the MJCF world frame is the robot base B of kinematics.hpp (z up, x forward). The
+// body chain follows the standard DH table row by row, so the site `tool` is exactly the DH
+// tool frame T for the joint values j1 (slide, m) and j2, j3, j4 (hinges, rad).
+#pragma once
+
+#include <string>
+
+#include "scaratwin/core/result.hpp"
+#include "scaratwin/kinematics/robot_model.hpp"
+
+namespace scaratwin::sim {
+
+// Names used in the generated model (and looked up by the simulator).
+inline constexpr const char* kToolSite = "tool";
+inline constexpr const char* kCameraName = "overhead";
+inline constexpr const char* kGripperBody = "wrist";
+inline constexpr const char* kFingerJoints[2] = {"finger_l", "finger_r"};
+
+struct MjcfOptions {
+  int cubes_per_color = 4;      // size of the cube pool of each colour, >= 1
+  double timestep_s = 0.002;    // physics step
+  int offscreen_width_px = 0;   // largest image the camera can render; 0 = camera width
+  int offscreen_height_px = 0;  // 0 = camera height
+  double cube_mass_kg = 0.008;  // a 2 cm PLA cube
+};
+
+// Geometry of the gripper derived from the cube size (m). Each finger's joint value is its
+// extra opening beyond the closed position, in [0, open_travel_m].
+struct GripperGeometry {
+  double closed_gap_m = 0.0;    // gap between the finger faces when closed (cube + 1 mm)
+  double open_travel_m = 0.0;   // travel of each finger from closed to open
+  double finger_depth_m = 0.0;  // extent of a finger face along the wrist y axis
+  double finger_height_m = 0.0;
+};
+GripperGeometry gripper_geometry(const RobotModel& model);
+
+// The MJCF text. Errors: invalid options (message names the option and the valid range).
+Result<std::string> make_mjcf(const RobotModel& model, const MjcfOptions& options = {});
+
+// A URDF of the arm (base, carriage, two links, wrist, tool frame) with the joint limits.
+Result<std::string> make_urdf(const RobotModel& model);
+
+// Body name of a pool cube: "cube_<colour>_<index>".
+std::string cube_body_name(CubeColor color, int index);
+
+}  // namespace scaratwin::sim

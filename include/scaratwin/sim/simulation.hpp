@@ -1,0 +1,215 @@
+// The virtual robot: a MuJoCo simulation of the SCARA, its gripper and the sorting scene,
+// generated from the robot description (mjcf.hpp). This class is single-threaded and
+// deterministic: the same calls in the same order give bit-identical states. The thread-safe
+// wrapper with real-time pacing is World (world.hpp).
+//
+// Two ways to move the robot:
+//  - mirror: joint values are applied directly to the joint positions (as the paper's Unity
+//    scene set transform.localRotation); the robot is kinematic, everything else obeys physics.
+//  - simulate: position actuators follow a commanded joint trajectory with dynamics; gravity
+//    and the joints' damping are fed forward so that the servos track without sag.
+// Cubes obey physics in both. A grasp looks for a cube between the fingers (the paper's
+// detector volume) and holds it with a weld; a release lets it fall.
+//
+// Units: SI (m, rad, s). Frames: positions are in the robot base B (the MJCF world frame);
+// quaternions are (w, x, y, z) of the body in B.
+#pragma once
+
+#include <array>
+#include <cstdint>
+#include <deque>
+#include <memory>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "scaratwin/core/result.hpp"
+#include "scaratwin/kinematics/kinematics.hpp"
+#include "scaratwin/kinematics/robot_model.hpp"
+#include "scaratwin/sim/mjcf.hpp"
+#include "scaratwin/trajectory/trajectory.hpp"
+
+struct mjModel_;
+struct mjData_;
+
+namespace scaratwin::sim {
+
+// Error codes of the simulator (Error::code).
+enum class SimError : int {
+  kMujoco = 40,         // MuJoCo reported an error (model compile, stack overflow, ...)
+  kBadArgument = 41,    // a value that is not finite or out of its valid range
+  kPoolExhausted = 42,  // every cube of that colour is already in the scene
+  kOccupied = 43,       // a spawn position overlaps a cube already there
+  kNoSuchCube = 44,     // an id that names no cube in the scene
+  kRender = 45,         // the camera could not render or encode
+  kWrongMode = 46,      // a mirror command in simulate mode or the reverse
+};
+
+enum class Mode { kMirror, kSimulate };
+const char* mode_name(Mode mode);
+
+struct SimOptions {
+  MjcfOptions mjcf;
+  std::size_t tool_path_points = 500;  // tool positions kept (one per tool_path_dt_s)
+  double tool_path_dt_s = 0.02;
+  std::size_t warnings_kept = 50;  // joint-limit warnings kept for the UI feed
+};
+
+// A cube of the pool that is in the scene.
+struct CubeState {
+  int id = -1;  // stable while the cube exists: colour * cubes_per_color + index in the pool
+  CubeColor color = CubeColor::kRed;
+  std::array<double, 3> pos_m{};  // centre in B
+  std::array<double, 4> quat_wxyz{1, 0, 0, 0};
+  bool held = false;  // welded to the gripper
+};
+
+// A joint value outside its limit (the value is applied anyway in mirror mode).
+struct JointWarning {
+  double time_s = 0.0;  // simulation time
+  int joint = 0;        // 0..3 (j1..j4)
+  double value = 0.0;   // m or rad
+  JointLimit limit;
+};
+
+// Outcome of a grasp: grasping nothing is a normal outcome, not an error.
+struct GraspResult {
+  bool holding = false;
+  int cube_id = -1;  // the cube held, or -1
+};
+
+// A point of the tool's recent path.
+struct ToolPoint {
+  double time_s = 0.0;
+  std::array<double, 3> pos_m{};
+};
+
+class Simulation {
+ public:
+  // Generates the model from `robot`, compiles it and puts the robot at home with no cubes.
+  static Result<std::unique_ptr<Simulation>> create(const RobotModel& robot,
+                                                    const SimOptions& options = {});
+  // An independent copy with the same state (for prediction runs); bit-exact continuation.
+  Result<std::unique_ptr<Simulation>> clone() const;
+  ~Simulation();
+  Simulation(const Simulation&) = delete;
+  Simulation& operator=(const Simulation&) = delete;
+
+  // --- scene -----------------------------------------------------------------------------
+  // Places a cube of `color` resting on the table at (x, y) with heading yaw. Fails without
+  // changing the scene when the position is not finite, off the table, overlapping another
+  // cube, or when every cube of the colour is in use.
+  Result<CubeState> spawn_cube(CubeColor color, double x_m, double y_m, double yaw_rad = 0.0);
+  // Removes every cube (and releases the gripper). The robot stays where it is.
+  void reset_scene();
+  // Every cube in the scene, ordered by id.
+  std::vector<CubeState> cubes() const;
+  Result<CubeState> cube(int id) const;
+  int cubes_per_color() const { return pool_per_color_; }
+
+  // --- motion ------------------------------------------------------------------------------
+  Mode mode() const { return mode_; }
+  // Switching to simulate holds the current joints; switching to mirror drops any trajectory.
+  void set_mode(Mode mode);
+  // Mirror: applies q at once (and at every step until the next call). Values outside their
+  // limits are applied and reported. Errors: not finite (nothing changes), simulate mode.
+  Result<std::vector<JointWarning>> set_joints(const JointVector& q);
+  // Simulate: follows `trajectory` from now on (times relative to now), executing its gripper
+  // events. Samples outside the limits are clamped by the servos and reported. Errors: empty,
+  // not finite, times not increasing from 0, mirror mode.
+  Result<std::vector<JointWarning>> follow(const JointTrajectory& trajectory);
+  // Simulate: holds q (a one-point move with the servos).
+  Result<std::vector<JointWarning>> hold(const JointVector& q);
+  // Stops any trajectory and holds the current joints.
+  void stop();
+  bool trajectory_active() const { return traj_.has_value(); }
+
+  // --- gripper ------------------------------------------------------------------------------
+  // Closes the fingers and holds the cube between them if there is one.
+  GraspResult grip();
+  // Opens the fingers and lets a held cube go.
+  void release();
+  bool gripper_closed() const { return gripper_closed_; }
+  int held_cube() const { return held_; }
+  // The cube whose centre is inside the detector volume between the fingers, or -1.
+  int cube_between_fingers() const;
+
+  // --- time -----------------------------------------------------------------------------------
+  // Advances n physics steps. A MuJoCo error restores the state before the call.
+  Status step(int n = 1);
+  // Steps until time_s() >= t (at least zero steps).
+  Status step_until(double t_s);
+  double time_s() const;
+  double timestep_s() const;
+
+  // --- state -----------------------------------------------------------------------------------
+  JointVector joints() const;         // measured joint positions
+  JointVector joint_targets() const;  // what the robot is told to be at now
+  ToolPose tool_pose() const;         // of the `tool` site (yaw from its x axis)
+  std::array<double, 3> tool_site_pos() const;
+  std::vector<ToolPoint> tool_path() const;
+  const std::deque<JointWarning>& recent_warnings() const { return warnings_; }
+  std::uint64_t warnings_total() const { return warnings_total_; }
+  const RobotModel& robot() const { return robot_; }
+  const SimOptions& options() const { return options_; }
+  const std::string& mjcf() const { return mjcf_; }
+
+  // The MuJoCo model and data (this simulation owns its model: grasps write eq_active and
+  // eq_data in it). For the renderer and for tests; do not keep the pointers.
+  const mjModel_* model() const { return m_; }
+  const mjData_* data() const { return d_; }
+  mjData_* mutable_data() { return d_; }
+
+ private:
+  Simulation() = default;
+  Status init(const RobotModel& robot, const SimOptions& options);
+  void park(int cube_id);
+  void apply_mirror_pose();
+  void apply_simulate_controls();
+  void run_due_gripper_events();
+  void record_tool_path();
+  void set_fingers(bool closed);
+  std::vector<JointWarning> note_limits(const JointVector& q);
+  JointWarning push_warning(int joint, double value);
+  bool cube_active(int id) const { return active_[id]; }
+  Status forward();
+
+  struct Ids {
+    std::array<int, kNumJoints> qpos{};  // qpos address of j1..j4
+    std::array<int, kNumJoints> dof{};
+    std::array<int, 2> finger_qpos{};
+    std::array<int, 2> finger_dof{};
+    std::array<int, kNumJoints + 2> actuator{};
+    int tool_site = -1;
+    int gripper_body = -1;
+    std::vector<int> cube_body, cube_qpos, cube_dof, cube_geom, cube_weld;
+  };
+
+  RobotModel robot_;
+  SimOptions options_;
+  std::string mjcf_;
+  mjModel_* m_ = nullptr;
+  mjData_* d_ = nullptr;
+  Ids ids_;
+  int pool_per_color_ = 0;
+  std::vector<char> active_;  // per cube id
+  std::vector<int> geom_contype_, geom_conaffinity_;
+
+  Mode mode_ = Mode::kMirror;
+  JointVector target_{};  // mirror pose or simulate hold point
+  struct ActiveTrajectory {
+    JointTrajectory trajectory;
+    double start_s = 0.0;
+    std::size_t next_event = 0;
+  };
+  std::optional<ActiveTrajectory> traj_;
+  bool gripper_closed_ = false;
+  int held_ = -1;
+
+  std::deque<ToolPoint> path_;
+  double next_path_s_ = 0.0;
+  std::deque<JointWarning> warnings_;
+  std::uint64_t warnings_total_ = 0;
+};
+
+}  // namespace scaratwin::sim

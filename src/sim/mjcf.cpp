@@ -1,0 +1,326 @@
+// MJCF and URDF generation from the robot description (see mjcf.hpp).
+#include "scaratwin/sim/mjcf.hpp"
+
+#include <array>
+#include <cmath>
+#include <string>
+
+#include <fmt/format.h>
+
+#include "scaratwin/core/units.hpp"
+
+namespace scaratwin::sim {
+namespace {
+
+using Vec3 = std::array<double, 3>;
+
+// Shortest round-trip representation, so that the model is exactly the description.
+std::string num(double v) { return fmt::format("{:.17g}", v); }
+std::string vec(double a, double b, double c) {
+  return fmt::format("{} {} {}", num(a), num(b), num(c));
+}
+
+// Quaternion (w x y z) of Rx(alpha) * Rz(theta): the fixed rotation between two DH bodies.
+std::string quat_xz(double alpha, double theta) {
+  const double ca = std::cos(alpha / 2), sa = std::sin(alpha / 2);
+  const double ct = std::cos(theta / 2), st = std::sin(theta / 2);
+  return fmt::format("{} {} {} {}", num(ca * ct), num(sa * ct), num(-sa * st), num(ca * st));
+}
+
+Vec3 sub(const Vec3& a, const Vec3& b) { return {a[0] - b[0], a[1] - b[1], a[2] - b[2]}; }
+Vec3 cross(const Vec3& a, const Vec3& b) {
+  return {a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]};
+}
+double norm(const Vec3& a) { return std::sqrt(a[0] * a[0] + a[1] * a[1] + a[2] * a[2]); }
+Vec3 unit(const Vec3& a) {
+  const double n = norm(a);
+  return {a[0] / n, a[1] / n, a[2] / n};
+}
+
+constexpr std::array<const char*, kNumColors> kCubeRgba = {"0.85 0.08 0.08 1", "0.08 0.65 0.12 1",
+                                                           "0.08 0.2 0.9 1"};
+constexpr std::array<const char*, kNumColors> kTrayRgba = {"0.75 0.55 0.55 1", "0.55 0.72 0.55 1",
+                                                           "0.55 0.6 0.78 1"};
+
+Error bad_option(std::string message) { return Error{1, std::move(message)}; }
+
+// Roll, pitch, yaw (URDF convention R = Rz(yaw) Ry(pitch) Rx(roll)) of Rx(alpha) Rz(theta).
+Vec3 rpy_xz(double alpha, double theta) {
+  // R = Rx(a) Rz(t): rows [ct, -st, 0; ca st, ca ct, -sa; sa st, sa ct, ca]
+  const double ca = std::cos(alpha), sa = std::sin(alpha);
+  const double ct = std::cos(theta), st = std::sin(theta);
+  const double r00 = ct, r10 = ca * st, r20 = sa * st, r21 = sa * ct, r22 = ca;
+  return {std::atan2(r21, r22), std::atan2(-r20, std::hypot(r00, r10)), std::atan2(r10, r00)};
+}
+
+}  // namespace
+
+std::string cube_body_name(CubeColor color, int index) {
+  return fmt::format("cube_{}_{}", color_name(color), index);
+}
+
+GripperGeometry gripper_geometry(const RobotModel& model) {
+  const double cube = model.scene.cube_size_m;
+  GripperGeometry g;
+  g.closed_gap_m = cube + 0.001;
+  g.open_travel_m = 0.4 * cube;
+  g.finger_depth_m = 0.8 * cube;
+  g.finger_height_m = 1.2 * cube;
+  return g;
+}
+
+Result<std::string> make_mjcf(const RobotModel& model, const MjcfOptions& o) {
+  if (o.cubes_per_color < 1 || o.cubes_per_color > 64) {
+    return bad_option(
+        fmt::format("cubes_per_color = {}: must be between 1 and 64", o.cubes_per_color));
+  }
+  if (!(o.timestep_s >= 1e-4 && o.timestep_s <= 0.01)) {
+    return bad_option(fmt::format("timestep_s = {}: must be in [0.0001, 0.01] s", o.timestep_s));
+  }
+  const CameraModel& cam = model.scene.camera;
+  const int off_w = o.offscreen_width_px > 0 ? o.offscreen_width_px : cam.width_px;
+  const int off_h = o.offscreen_height_px > 0 ? o.offscreen_height_px : cam.height_px;
+  if (off_w < 1 || off_h < 1 || off_w > 4096 || off_h > 4096) {
+    return bad_option(
+        fmt::format("offscreen size {}x{}: must be 1..4096 pixels each way", off_w, off_h));
+  }
+  if (!(o.cube_mass_kg > 0.0)) {
+    return bad_option(fmt::format("cube_mass_kg = {}: must be > 0", o.cube_mass_kg));
+  }
+  const Vec3 forward = sub(cam.look_at_m, cam.pos_m);
+  if (!(norm(forward) > 1e-6)) return bad_option("scene.camera: pos_m and look_at_m coincide");
+  if (!(cam.fovy_deg > 1.0 && cam.fovy_deg < 179.0)) {
+    return bad_option(fmt::format("scene.camera.fovy_deg = {}: must be in (1, 179)", cam.fovy_deg));
+  }
+
+  const SceneModel& sc = model.scene;
+  const auto& dh = model.dh;
+  const GripperGeometry grip = gripper_geometry(model);
+  const double cube = sc.cube_size_m;
+  const double d1_max = model.limits[0].max;
+  std::string x;
+  x.reserve(16384);
+  x += fmt::format("<mujoco model=\"{}\">\n", model.name);
+  x += "  <compiler angle=\"radian\" inertiafromgeom=\"true\"/>\n";
+  x += fmt::format(
+      "  <option timestep=\"{}\" integrator=\"Euler\" gravity=\"0 0 -9.81\" "
+      "cone=\"pyramidal\"/>\n",
+      num(o.timestep_s));
+  // extent fixed so that the parked cubes far away do not move the clipping planes
+  x += "  <statistic extent=\"0.6\" center=\"0.1 0 0\"/>\n";
+  x += fmt::format(
+      "  <visual>\n    <global offwidth=\"{}\" offheight=\"{}\"/>\n"
+      "    <quality shadowsize=\"2048\" offsamples=\"0\"/>\n"
+      "    <map znear=\"0.02\" zfar=\"20\"/>\n"
+      "    <headlight ambient=\"0.35 0.35 0.35\" diffuse=\"0.5 0.5 0.5\"/>\n  </visual>\n",
+      off_w, off_h);
+  x += "  <default>\n"
+       "    <geom contype=\"0\" conaffinity=\"0\" rgba=\"0.82 0.82 0.85 1\"/>\n"
+       "    <default class=\"solid\"><geom contype=\"1\" conaffinity=\"1\" condim=\"3\" "
+       "friction=\"0.8 0.005 0.0001\"/></default>\n"
+       "  </default>\n";
+
+  x += "  <worldbody>\n";
+  x += "    <light name=\"sun\" pos=\"0.1 0 1.2\" dir=\"0 0 -1\" directional=\"true\" "
+       "diffuse=\"0.6 0.6 0.6\" castshadow=\"false\"/>\n";
+  // table: covers the workspace and the trays
+  const double table_half_t = 0.01;
+  x += fmt::format(
+      "    <geom name=\"table\" class=\"solid\" type=\"box\" size=\"{}\" pos=\"{}\" "
+      "rgba=\"0.72 0.68 0.6 1\"/>\n",
+      vec(0.3, 0.32, table_half_t), vec(0.08, 0.0, sc.table_z_m - table_half_t));
+  // column: from the table to above the highest carriage position
+  const double col_top = d1_max + dh[0].d_m + 0.04;
+  const double col_h = 0.5 * (col_top - sc.table_z_m);
+  x += fmt::format(
+      "    <geom name=\"base\" type=\"cylinder\" size=\"0.055 0.006\" pos=\"{}\" "
+      "rgba=\"0.25 0.25 0.28 1\"/>\n",
+      vec(0, 0, sc.table_z_m + 0.006));
+  x += fmt::format(
+      "    <geom name=\"column\" type=\"box\" size=\"{}\" pos=\"{}\" rgba=\"0.3 0.3 0.33 1\"/>\n",
+      vec(0.016, 0.016, col_h), vec(-0.03, 0, sc.table_z_m + col_h));
+  // sorting trays: a floor and four walls around the inner square
+  for (int c = 0; c < kNumColors; ++c) {
+    const Tray& t = sc.trays[c];
+    const double wall = 0.003, h = 0.006, half = t.size_m / 2;
+    x += fmt::format("    <body name=\"tray_{}\" pos=\"{}\">\n", color_name(CubeColor(c)),
+                     vec(t.x_m, t.y_m, sc.table_z_m));
+    const std::string rgba = kTrayRgba[c];
+    x += fmt::format(
+        "      <geom class=\"solid\" type=\"box\" size=\"{}\" pos=\"0 0 0.001\" rgba=\"{}\"/>\n",
+        vec(half + wall, half + wall, 0.001), rgba);
+    for (int side = 0; side < 4; ++side) {
+      const bool along_x = side < 2;
+      const double s = (side % 2 == 0) ? 1.0 : -1.0;
+      const Vec3 size = along_x ? Vec3{half + 2 * wall, wall, h} : Vec3{wall, half, h};
+      const Vec3 pos = along_x ? Vec3{0, s * (half + wall), h} : Vec3{s * (half + wall), 0, h};
+      x += fmt::format(
+          "      <geom class=\"solid\" type=\"box\" size=\"{}\" pos=\"{}\" rgba=\"{}\"/>\n",
+          vec(size[0], size[1], size[2]), vec(pos[0], pos[1], pos[2]), rgba);
+    }
+    x += "    </body>\n";
+  }
+  // overhead camera: looks along -z of its frame, x to the right of the image, y up
+  {
+    const Vec3 f = unit(forward);
+    const Vec3 up_hint = std::abs(f[2]) > 0.999 ? Vec3{1, 0, 0} : Vec3{0, 0, 1};
+    const Vec3 cx = unit(cross(f, up_hint));
+    const Vec3 cy = cross(cx, f);
+    x += fmt::format(
+        "    <camera name=\"{}\" mode=\"fixed\" pos=\"{}\" xyaxes=\"{} {}\" fovy=\"{}\"/>\n",
+        kCameraName, vec(cam.pos_m[0], cam.pos_m[1], cam.pos_m[2]), vec(cx[0], cx[1], cx[2]),
+        vec(cy[0], cy[1], cy[2]), num(cam.fovy_deg));
+  }
+
+  // the arm: one body per DH row. Body i sits in frame i-1; its joint moves about (along) the
+  // local z axis; its child sits at Tz(d_i) Tx(a_i) Rx(alpha_i) Rz(theta_{i+1}).
+  const std::string arm_rgba = "0.93 0.93 0.95 1";
+  x += fmt::format("    <body name=\"carriage\" pos=\"{}\" quat=\"{}\">\n", vec(0, 0, dh[0].d_m),
+                   quat_xz(0.0, dh[0].theta_rad));
+  x += fmt::format(
+      "      <joint name=\"j1\" type=\"slide\" axis=\"0 0 1\" limited=\"false\" range=\"{} {}\" "
+      "damping=\"120\" armature=\"0.05\"/>\n",
+      num(model.limits[0].min), num(model.limits[0].max));
+  x += fmt::format("      <geom type=\"box\" size=\"{}\" pos=\"{}\" mass=\"0.35\" rgba=\"{}\"/>\n",
+                   vec(0.5 * dh[0].a_m + 0.02, 0.022, 0.012), vec(0.5 * dh[0].a_m - 0.02, 0, 0),
+                   arm_rgba);
+  x += fmt::format("      <body name=\"link1\" pos=\"{}\" quat=\"{}\">\n", vec(dh[0].a_m, 0, 0),
+                   quat_xz(dh[0].alpha_rad, dh[1].theta_rad));
+  x += "        <joint name=\"j2\" type=\"hinge\" axis=\"0 0 1\" limited=\"false\" "
+       "damping=\"0.8\" armature=\"0.002\"/>\n";
+  x += fmt::format(
+      "        <geom type=\"capsule\" fromto=\"0 0 0 {}\" size=\"0.018\" mass=\"0.2\" "
+      "rgba=\"{}\"/>\n",
+      vec(dh[1].a_m, 0, 0), arm_rgba);
+  x += fmt::format(
+      "        <geom type=\"cylinder\" fromto=\"{} {}\" size=\"0.012\" mass=\"0.01\" "
+      "rgba=\"0.3 0.3 0.33 1\"/>\n",
+      vec(dh[1].a_m, 0, 0.0), vec(dh[1].a_m, 0, dh[1].d_m - 0.001));
+  x += fmt::format("        <body name=\"link2\" pos=\"{}\" quat=\"{}\">\n",
+                   vec(dh[1].a_m, 0, dh[1].d_m), quat_xz(dh[1].alpha_rad, dh[2].theta_rad));
+  x += "          <joint name=\"j3\" type=\"hinge\" axis=\"0 0 1\" limited=\"false\" "
+       "damping=\"0.3\" armature=\"0.001\"/>\n";
+  x += fmt::format(
+      "          <geom type=\"capsule\" fromto=\"0 0 0 {}\" size=\"0.015\" mass=\"0.15\" "
+      "rgba=\"{}\"/>\n",
+      vec(dh[2].a_m, 0, 0), arm_rgba);
+  x += fmt::format("          <body name=\"{}\" pos=\"{}\" quat=\"{}\">\n", kGripperBody,
+                   vec(dh[2].a_m, 0, dh[2].d_m), quat_xz(dh[2].alpha_rad, dh[3].theta_rad));
+  x += "            <joint name=\"j4\" type=\"hinge\" axis=\"0 0 1\" limited=\"false\" "
+       "damping=\"0.02\" armature=\"0.0005\"/>\n";
+  // wrist: a servo horn down to the palm just above the fingers
+  const double tool_z = dh[3].d_m;  // tool (grasp point) z in the wrist body frame
+  const double palm_z = tool_z + 0.5 * grip.finger_height_m + 0.004;
+  x += fmt::format(
+      "            <geom type=\"cylinder\" fromto=\"0 0 0.004 {}\" size=\"0.008\" mass=\"0.04\" "
+      "rgba=\"0.3 0.3 0.33 1\"/>\n",
+      vec(dh[3].a_m, 0, palm_z));
+  x += fmt::format(
+      "            <geom type=\"box\" size=\"{}\" pos=\"{}\" mass=\"0.02\" rgba=\"{}\"/>\n",
+      vec(0.5 * grip.closed_gap_m + grip.open_travel_m + 0.008, 0.6 * grip.finger_depth_m, 0.004),
+      vec(dh[3].a_m, 0, palm_z), arm_rgba);
+  x += fmt::format(
+      "            <site name=\"{}\" pos=\"{}\" quat=\"{}\" size=\"0.003\" "
+      "rgba=\"1 0.6 0 0.6\"/>\n",
+      kToolSite, vec(dh[3].a_m, 0, tool_z), quat_xz(dh[3].alpha_rad, 0.0));
+  // fingers: slide along the wrist x axis; joint value = extra opening beyond closed
+  for (int side = 0; side < 2; ++side) {
+    const double s = side == 0 ? 1.0 : -1.0;
+    const double finger_t = 0.0025;
+    x += fmt::format("            <body name=\"finger_{}_body\" pos=\"{}\">\n",
+                     side == 0 ? "l" : "r",
+                     vec(dh[3].a_m + s * (0.5 * grip.closed_gap_m + finger_t), 0, tool_z));
+    x += fmt::format(
+        "              <joint name=\"{}\" type=\"slide\" axis=\"{}\" limited=\"true\" "
+        "range=\"0 {}\" damping=\"1\" armature=\"0.01\"/>\n",
+        kFingerJoints[side], vec(s, 0, 0), num(grip.open_travel_m));
+    x += fmt::format(
+        "              <geom type=\"box\" size=\"{}\" pos=\"{}\" mass=\"0.005\" "
+        "rgba=\"0.2 0.2 0.22 1\"/>\n",
+        vec(finger_t, 0.5 * grip.finger_depth_m, 0.5 * grip.finger_height_m),
+        vec(0, 0, 0.1 * grip.finger_height_m));
+    x += "            </body>\n";
+  }
+  x += "          </body>\n        </body>\n      </body>\n    </body>\n";
+
+  // cube pool, parked far from the scene (the simulator disables their contacts while parked)
+  for (int c = 0; c < kNumColors; ++c) {
+    for (int i = 0; i < o.cubes_per_color; ++i) {
+      const int k = c * o.cubes_per_color + i;
+      x += fmt::format(
+          "    <body name=\"{}\" pos=\"{}\">\n      <freejoint/>\n"
+          "      <geom class=\"solid\" type=\"box\" size=\"{}\" mass=\"{}\" rgba=\"{}\"/>\n"
+          "    </body>\n",
+          cube_body_name(CubeColor(c), i), vec(5.0 + 0.1 * k, 5.0, 0.0),
+          vec(cube / 2, cube / 2, cube / 2), num(o.cube_mass_kg), kCubeRgba[c]);
+    }
+  }
+  x += "  </worldbody>\n";
+
+  // one weld per cube between the gripper and the cube, inactive until a grasp
+  x += "  <equality>\n";
+  for (int c = 0; c < kNumColors; ++c) {
+    for (int i = 0; i < o.cubes_per_color; ++i) {
+      x += fmt::format(
+          "    <weld name=\"hold_{0}\" body1=\"{1}\" body2=\"{0}\" active=\"false\" "
+          "solref=\"0.01 1\"/>\n",
+          cube_body_name(CubeColor(c), i), kGripperBody);
+    }
+  }
+  x += "  </equality>\n";
+
+  // position servos for the simulate mode; gains sized for the link inertias above
+  x += "  <actuator>\n";
+  static constexpr const char* kJ[] = {"j1", "j2", "j3", "j4"};
+  static constexpr double kKp[] = {4000.0, 40.0, 15.0, 1.0};
+  for (int j = 0; j < kNumJoints; ++j) {
+    x += fmt::format(
+        "    <position name=\"{0}\" joint=\"{0}\" kp=\"{1}\" ctrllimited=\"true\" "
+        "ctrlrange=\"{2} {3}\"/>\n",
+        kJ[j], num(kKp[j]), num(model.limits[j].min), num(model.limits[j].max));
+  }
+  for (int side = 0; side < 2; ++side) {
+    x += fmt::format(
+        "    <position name=\"{0}\" joint=\"{0}\" kp=\"20\" ctrllimited=\"true\" "
+        "ctrlrange=\"0 {1}\"/>\n",
+        kFingerJoints[side], num(grip.open_travel_m));
+  }
+  x += "  </actuator>\n</mujoco>\n";
+  return x;
+}
+
+Result<std::string> make_urdf(const RobotModel& model) {
+  if (Status s = validate(model); !s) return s.error();
+  const auto& dh = model.dh;
+  std::string x;
+  x += fmt::format("<?xml version=\"1.0\"?>\n<robot name=\"{}\">\n", model.name);
+  static constexpr const char* kLinks[] = {"base_link", "carriage", "link1",
+                                           "link2",     "wrist",    "tool"};
+  static constexpr const char* kJ[] = {"j1", "j2", "j3", "j4"};
+  for (const char* l : kLinks) x += fmt::format("  <link name=\"{}\"/>\n", l);
+  // joint i+1 sits at Tz(d_i) Tx(a_i) Rx(alpha_i) Rz(theta_{i+1}) of the previous link
+  Vec3 xyz{0, 0, dh[0].d_m};
+  Vec3 rpy = rpy_xz(0.0, dh[0].theta_rad);
+  for (int j = 0; j < kNumJoints; ++j) {
+    const bool prismatic = j == 0;
+    x += fmt::format(
+        "  <joint name=\"{}\" type=\"{}\">\n    <parent link=\"{}\"/>\n    <child link=\"{}\"/>\n"
+        "    <origin xyz=\"{}\" rpy=\"{}\"/>\n    <axis xyz=\"0 0 1\"/>\n"
+        "    <limit lower=\"{}\" upper=\"{}\" effort=\"50\" velocity=\"{}\"/>\n  </joint>\n",
+        kJ[j], prismatic ? "prismatic" : "revolute", kLinks[j], kLinks[j + 1],
+        vec(xyz[0], xyz[1], xyz[2]), vec(rpy[0], rpy[1], rpy[2]), num(model.limits[j].min),
+        num(model.limits[j].max), prismatic ? "0.05" : "3.0");
+    const double next_theta = j + 1 < kNumJoints ? dh[j + 1].theta_rad : 0.0;
+    xyz = {dh[j].a_m, 0.0, j == 0 ? 0.0 : dh[j].d_m};
+    rpy = rpy_xz(dh[j].alpha_rad, next_theta);
+  }
+  // the tool frame, fixed to the wrist
+  x += fmt::format(
+      "  <joint name=\"tool_fixed\" type=\"fixed\">\n    <parent link=\"wrist\"/>\n"
+      "    <child link=\"tool\"/>\n    <origin xyz=\"{}\" rpy=\"{}\"/>\n  </joint>\n",
+      vec(dh[3].a_m, 0, dh[3].d_m), vec(rpy[0], rpy[1], rpy[2]));
+  x += "</robot>\n";
+  return x;
+}
+
+}  // namespace scaratwin::sim

@@ -1,0 +1,438 @@
+// Simulation: model compilation, motion (mirror and simulate), stepping and state queries.
+// Scene operations and the gripper are in scene.cpp.
+#include "scaratwin/sim/simulation.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <cstring>
+
+#include <fmt/format.h>
+#include <mujoco/mujoco.h>
+
+#include "mj_guard.hpp"
+
+namespace scaratwin::sim {
+namespace {
+
+Error sim_error(SimError code, std::string message) {
+  return Error{static_cast<int>(code), std::move(message)};
+}
+
+bool finite(const JointVector& q) {
+  return std::all_of(q.begin(), q.end(), [](double v) { return std::isfinite(v); });
+}
+
+// Linear interpolation of position and velocity; `hint` speeds up monotonic queries.
+void sample(const JointTrajectory& t, double t_s, std::size_t& hint, JointVector& q,
+            JointVector& qd) {
+  const auto& s = t.samples;
+  if (t_s <= s.front().t_s) {
+    q = s.front().q;
+    qd = s.front().qd;
+    return;
+  }
+  if (t_s >= s.back().t_s) {
+    q = s.back().q;
+    qd = JointVector{};
+    return;
+  }
+  if (hint >= s.size() - 1 || s[hint].t_s > t_s) hint = 0;
+  while (hint + 1 < s.size() - 1 && s[hint + 1].t_s <= t_s) ++hint;
+  const JointSample& a = s[hint];
+  const JointSample& b = s[hint + 1];
+  const double u = (t_s - a.t_s) / (b.t_s - a.t_s);
+  for (int j = 0; j < kNumJoints; ++j) {
+    q[j] = a.q[j] + u * (b.q[j] - a.q[j]);
+    qd[j] = a.qd[j] + u * (b.qd[j] - a.qd[j]);
+  }
+}
+
+}  // namespace
+
+const char* mode_name(Mode mode) { return mode == Mode::kMirror ? "mirror" : "simulate"; }
+
+Simulation::~Simulation() {
+  if (d_ != nullptr) mj_deleteData(d_);
+  if (m_ != nullptr) mj_deleteModel(m_);
+}
+
+Result<std::unique_ptr<Simulation>> Simulation::create(const RobotModel& robot,
+                                                       const SimOptions& options) {
+  std::unique_ptr<Simulation> s(new Simulation());
+  if (Status st = s->init(robot, options); !st) return st.error();
+  return s;
+}
+
+Status Simulation::init(const RobotModel& robot, const SimOptions& options) {
+  if (Status v = validate(robot); !v) return sim_error(SimError::kBadArgument, v.error().message);
+  if (options.tool_path_points == 0 || !(options.tool_path_dt_s > 0.0)) {
+    return sim_error(SimError::kBadArgument, "tool_path_points must be > 0 and tool_path_dt_s > 0");
+  }
+  robot_ = robot;
+  options_ = options;
+  auto xml = make_mjcf(robot, options.mjcf);
+  if (!xml) return sim_error(SimError::kBadArgument, xml.error().message);
+  mjcf_ = std::move(*xml);
+  pool_per_color_ = options.mjcf.cubes_per_color;
+
+  // compile from memory through a virtual file system
+  auto vfs = std::make_unique<mjVFS>();
+  char err[1024] = {0};
+  struct Load {
+    mjVFS* vfs;
+    const std::string* xml;
+    char* err;
+    mjModel* m = nullptr;
+    void operator()() {
+      mj_defaultVFS(vfs);
+      if (mj_makeEmptyFileVFS(vfs, "scaratwin.xml", static_cast<int>(xml->size())) != 0) return;
+      const int i = mj_findFileVFS(vfs, "scaratwin.xml");
+      std::memcpy(vfs->filedata[i], xml->data(), xml->size());
+      m = mj_loadXML("scaratwin.xml", vfs, err, 1024);
+      mj_deleteVFS(vfs);
+    }
+  } load{vfs.get(), &mjcf_, err};
+  if (Status st =
+          detail::mj_guarded(static_cast<int>(SimError::kMujoco), "compiling the model", load);
+      !st) {
+    return st.error();
+  }
+  if (load.m == nullptr) {
+    return sim_error(SimError::kMujoco, fmt::format("compiling the model: {}", err));
+  }
+  m_ = load.m;
+  struct Make {
+    mjModel* m;
+    mjData* d = nullptr;
+    void operator()() { d = mj_makeData(m); }
+  } make{m_};
+  if (Status st = detail::mj_guarded(static_cast<int>(SimError::kMujoco), "mj_makeData", make);
+      !st) {
+    return st.error();
+  }
+  d_ = make.d;
+  if (d_ == nullptr) return sim_error(SimError::kMujoco, "mj_makeData: out of memory");
+
+  const auto id = [&](mjtObj type, const std::string& name) {
+    const int i = mj_name2id(m_, type, name.c_str());
+    SCARATWIN_CHECK(i >= 0, "generated model lacks a named element");
+    return i;
+  };
+  static constexpr const char* kJ[] = {"j1", "j2", "j3", "j4"};
+  for (int j = 0; j < kNumJoints; ++j) {
+    const int jid = id(mjOBJ_JOINT, kJ[j]);
+    ids_.qpos[j] = m_->jnt_qposadr[jid];
+    ids_.dof[j] = m_->jnt_dofadr[jid];
+    ids_.actuator[j] = id(mjOBJ_ACTUATOR, kJ[j]);
+  }
+  for (int f = 0; f < 2; ++f) {
+    const int jid = id(mjOBJ_JOINT, kFingerJoints[f]);
+    ids_.finger_qpos[f] = m_->jnt_qposadr[jid];
+    ids_.finger_dof[f] = m_->jnt_dofadr[jid];
+    ids_.actuator[kNumJoints + f] = id(mjOBJ_ACTUATOR, kFingerJoints[f]);
+  }
+  ids_.tool_site = id(mjOBJ_SITE, kToolSite);
+  ids_.gripper_body = id(mjOBJ_BODY, kGripperBody);
+  const int n = kNumColors * pool_per_color_;
+  for (int k = 0; k < n; ++k) {
+    const std::string name = cube_body_name(CubeColor(k / pool_per_color_), k % pool_per_color_);
+    const int b = id(mjOBJ_BODY, name);
+    ids_.cube_body.push_back(b);
+    ids_.cube_qpos.push_back(m_->jnt_qposadr[m_->body_jntadr[b]]);
+    ids_.cube_dof.push_back(m_->jnt_dofadr[m_->body_jntadr[b]]);
+    ids_.cube_geom.push_back(m_->body_geomadr[b]);
+    ids_.cube_weld.push_back(id(mjOBJ_EQUALITY, "hold_" + name));
+    geom_contype_.push_back(m_->geom_contype[m_->body_geomadr[b]]);
+    geom_conaffinity_.push_back(m_->geom_conaffinity[m_->body_geomadr[b]]);
+  }
+  active_.assign(n, 0);
+  for (int k = 0; k < n; ++k) park(k);
+
+  target_ = robot_.home;
+  gripper_closed_ = false;
+  apply_mirror_pose();
+  return forward();
+}
+
+Result<std::unique_ptr<Simulation>> Simulation::clone() const {
+  std::unique_ptr<Simulation> s(new Simulation());
+  struct Copy {
+    const mjModel* src_m;
+    const mjData* src_d;
+    mjModel* m = nullptr;
+    mjData* d = nullptr;
+    void operator()() {
+      m = mj_copyModel(nullptr, src_m);
+      d = mj_makeData(m);
+      mj_copyData(d, m, src_d);
+    }
+  } copy{m_, d_};
+  if (Status st =
+          detail::mj_guarded(static_cast<int>(SimError::kMujoco), "copying the simulation", copy);
+      !st) {
+    return st.error();
+  }
+  s->m_ = copy.m;
+  s->d_ = copy.d;
+  s->robot_ = robot_;
+  s->options_ = options_;
+  s->mjcf_ = mjcf_;
+  s->ids_ = ids_;
+  s->pool_per_color_ = pool_per_color_;
+  s->active_ = active_;
+  s->geom_contype_ = geom_contype_;
+  s->geom_conaffinity_ = geom_conaffinity_;
+  s->mode_ = mode_;
+  s->target_ = target_;
+  s->traj_ = traj_;
+  s->gripper_closed_ = gripper_closed_;
+  s->held_ = held_;
+  s->path_ = path_;
+  s->next_path_s_ = next_path_s_;
+  s->warnings_ = warnings_;
+  s->warnings_total_ = warnings_total_;
+  return s;
+}
+
+Status Simulation::forward() {
+  struct Fwd {
+    const mjModel* m;
+    mjData* d;
+    void operator()() { mj_forward(m, d); }
+  } fwd{m_, d_};
+  return detail::mj_guarded(static_cast<int>(SimError::kMujoco), "mj_forward", fwd);
+}
+
+void Simulation::set_mode(Mode mode) {
+  if (mode == mode_) return;
+  traj_.reset();
+  target_ = joints();
+  mode_ = mode;
+  if (mode_ == Mode::kMirror) {
+    for (int j = 0; j < kNumJoints; ++j) d_->qfrc_applied[ids_.dof[j]] = 0.0;
+  }
+}
+
+JointWarning Simulation::push_warning(int joint, double value) {
+  const JointWarning w{d_->time, joint, value, robot_.limits[joint]};
+  warnings_.push_back(w);
+  ++warnings_total_;
+  while (warnings_.size() > options_.warnings_kept) warnings_.pop_front();
+  return w;
+}
+
+std::vector<JointWarning> Simulation::note_limits(const JointVector& q) {
+  std::vector<JointWarning> out;
+  for (int j = 0; j < kNumJoints; ++j) {
+    if (!robot_.limits[j].contains(q[j])) out.push_back(push_warning(j, q[j]));
+  }
+  return out;
+}
+
+Result<std::vector<JointWarning>> Simulation::set_joints(const JointVector& q) {
+  if (!finite(q)) return sim_error(SimError::kBadArgument, "joint values must be finite");
+  if (mode_ != Mode::kMirror) {
+    return sim_error(SimError::kWrongMode,
+                     "joint data are applied in mirror mode; the simulator is in simulate mode");
+  }
+  auto warnings = note_limits(q);
+  target_ = q;
+  apply_mirror_pose();
+  if (Status st = forward(); !st) return st.error();
+  return warnings;
+}
+
+Result<std::vector<JointWarning>> Simulation::follow(const JointTrajectory& t) {
+  if (mode_ != Mode::kSimulate) {
+    return sim_error(SimError::kWrongMode,
+                     "trajectories are followed in simulate mode; the simulator is in mirror mode");
+  }
+  if (t.samples.empty()) return sim_error(SimError::kBadArgument, "trajectory has no samples");
+  if (t.samples.front().t_s != 0.0) {
+    return sim_error(
+        SimError::kBadArgument,
+        fmt::format("trajectory starts at t = {} s; it must start at 0", t.samples.front().t_s));
+  }
+  for (std::size_t i = 0; i < t.samples.size(); ++i) {
+    const JointSample& s = t.samples[i];
+    if (!std::isfinite(s.t_s) || !finite(s.q) || !finite(s.qd)) {
+      return sim_error(SimError::kBadArgument, fmt::format("sample {} is not finite", i));
+    }
+    if (i > 0 && !(s.t_s > t.samples[i - 1].t_s)) {
+      return sim_error(SimError::kBadArgument,
+                       fmt::format("sample {} at t = {} s does not come after {} s", i, s.t_s,
+                                   t.samples[i - 1].t_s));
+    }
+  }
+  for (const GripperEvent& e : t.events) {
+    if (!std::isfinite(e.t_s)) return sim_error(SimError::kBadArgument, "event time not finite");
+  }
+  // one warning per joint: its first sample outside the limits
+  std::vector<JointWarning> warnings;
+  std::array<bool, kNumJoints> seen{};
+  for (const JointSample& s : t.samples) {
+    for (int j = 0; j < kNumJoints; ++j) {
+      if (seen[j] || robot_.limits[j].contains(s.q[j])) continue;
+      seen[j] = true;
+      warnings.push_back(push_warning(j, s.q[j]));
+    }
+  }
+  ActiveTrajectory a;
+  a.trajectory = t;
+  std::stable_sort(a.trajectory.events.begin(), a.trajectory.events.end(),
+                   [](const GripperEvent& x, const GripperEvent& y) { return x.t_s < y.t_s; });
+  a.start_s = d_->time;
+  traj_ = std::move(a);
+  return warnings;
+}
+
+Result<std::vector<JointWarning>> Simulation::hold(const JointVector& q) {
+  if (!finite(q)) return sim_error(SimError::kBadArgument, "joint values must be finite");
+  if (mode_ != Mode::kSimulate) {
+    return sim_error(SimError::kWrongMode, "hold is a simulate-mode command");
+  }
+  auto warnings = note_limits(q);
+  traj_.reset();
+  target_ = q;
+  return warnings;
+}
+
+void Simulation::stop() {
+  traj_.reset();
+  if (mode_ == Mode::kSimulate) target_ = joints();
+}
+
+void Simulation::apply_mirror_pose() {
+  const GripperGeometry g = gripper_geometry(robot_);
+  for (int j = 0; j < kNumJoints; ++j) {
+    d_->qpos[ids_.qpos[j]] = target_[j];
+    d_->qvel[ids_.dof[j]] = 0.0;
+  }
+  for (int f = 0; f < 2; ++f) {
+    d_->qpos[ids_.finger_qpos[f]] = gripper_closed_ ? 0.0 : g.open_travel_m;
+    d_->qvel[ids_.finger_dof[f]] = 0.0;
+  }
+}
+
+void Simulation::apply_simulate_controls() {
+  JointVector q = target_, qd{};
+  if (traj_) {
+    std::size_t hint = 0;
+    sample(traj_->trajectory, d_->time - traj_->start_s, hint, q, qd);
+  }
+  for (int j = 0; j < kNumJoints; ++j) {
+    d_->ctrl[ids_.actuator[j]] = q[j];
+    // feed forward gravity, Coriolis and the joint damping at the reference velocity
+    const int dof = ids_.dof[j];
+    d_->qfrc_applied[dof] = d_->qfrc_bias[dof] + m_->dof_damping[dof] * qd[j];
+  }
+  const GripperGeometry g = gripper_geometry(robot_);
+  for (int f = 0; f < 2; ++f) {
+    d_->ctrl[ids_.actuator[kNumJoints + f]] = gripper_closed_ ? 0.0 : g.open_travel_m;
+  }
+}
+
+void Simulation::run_due_gripper_events() {
+  if (!traj_) return;
+  const double t_rel = d_->time - traj_->start_s;
+  auto& events = traj_->trajectory.events;
+  while (traj_->next_event < events.size() && events[traj_->next_event].t_s <= t_rel + 1e-12) {
+    if (events[traj_->next_event].action == GripperAction::kGrip) {
+      grip();
+    } else {
+      release();
+    }
+    ++traj_->next_event;
+  }
+  if (t_rel > traj_->trajectory.duration_s() && traj_->next_event >= events.size()) {
+    target_ = traj_->trajectory.samples.back().q;
+    traj_.reset();
+  }
+}
+
+void Simulation::record_tool_path() {
+  if (d_->time + 1e-12 < next_path_s_) return;
+  path_.push_back(ToolPoint{d_->time, tool_site_pos()});
+  while (path_.size() > options_.tool_path_points) path_.pop_front();
+  next_path_s_ = d_->time + options_.tool_path_dt_s;
+}
+
+Status Simulation::step(int n) {
+  if (n <= 0) return Ok{};
+  // a light copy of the state, restored if MuJoCo fails part way
+  const std::vector<double> qpos(d_->qpos, d_->qpos + m_->nq);
+  const std::vector<double> qvel(d_->qvel, d_->qvel + m_->nv);
+  const double time = d_->time;
+  struct Steps {
+    Simulation* s;
+    int n;
+    void operator()() {
+      for (int i = 0; i < n; ++i) {
+        if (s->mode_ == Mode::kMirror) {
+          s->apply_mirror_pose();
+        } else {
+          s->run_due_gripper_events();
+          s->apply_simulate_controls();
+        }
+        mj_step(s->m_, s->d_);
+        if (s->mode_ == Mode::kMirror) s->apply_mirror_pose();
+        for (std::size_t k = 0; k < s->active_.size(); ++k) {
+          if (!s->active_[k]) s->park(static_cast<int>(k));
+        }
+        mj_kinematics(s->m_, s->d_);
+        s->record_tool_path();
+      }
+    }
+  } steps{this, n};
+  Status st = detail::mj_guarded(static_cast<int>(SimError::kMujoco), "mj_step", steps);
+  if (!st) {
+    mj_resetData(m_, d_);
+    std::copy(qpos.begin(), qpos.end(), d_->qpos);
+    std::copy(qvel.begin(), qvel.end(), d_->qvel);
+    d_->time = time;
+    (void)forward();
+  }
+  return st;
+}
+
+Status Simulation::step_until(double t_s) {
+  const double dt = timestep_s();
+  const double remaining = t_s - d_->time;
+  if (!(remaining > 0.0)) return Ok{};
+  const int n = static_cast<int>(std::ceil(remaining / dt - 1e-9));
+  return step(std::max(n, 0));
+}
+
+double Simulation::time_s() const { return d_->time; }
+double Simulation::timestep_s() const { return m_->opt.timestep; }
+
+JointVector Simulation::joints() const {
+  JointVector q{};
+  for (int j = 0; j < kNumJoints; ++j) q[j] = d_->qpos[ids_.qpos[j]];
+  return q;
+}
+
+JointVector Simulation::joint_targets() const {
+  if (mode_ == Mode::kSimulate && traj_) {
+    JointVector q{}, qd{};
+    std::size_t hint = 0;
+    sample(traj_->trajectory, d_->time - traj_->start_s, hint, q, qd);
+    return q;
+  }
+  return target_;
+}
+
+std::array<double, 3> Simulation::tool_site_pos() const {
+  const double* p = d_->site_xpos + 3 * ids_.tool_site;
+  return {p[0], p[1], p[2]};
+}
+
+ToolPose Simulation::tool_pose() const {
+  const auto p = tool_site_pos();
+  const double* r = d_->site_xmat + 9 * ids_.tool_site;
+  return ToolPose{p[0], p[1], p[2], std::atan2(r[3], r[0])};
+}
+
+std::vector<ToolPoint> Simulation::tool_path() const { return {path_.begin(), path_.end()}; }
+
+}  // namespace scaratwin::sim

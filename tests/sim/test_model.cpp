@@ -1,0 +1,131 @@
+// The generated MuJoCo model against the DH kinematics, and MuJoCo errors as our errors.
+#include <random>
+
+#include <gtest/gtest.h>
+#include <mujoco/mujoco.h>
+
+#include "mj_guard.hpp"
+#include "scaratwin/config/robot_config.hpp"
+#include "scaratwin/kinematics/kinematics.hpp"
+#include "scaratwin/sim/mjcf.hpp"
+#include "scaratwin/sim/simulation.hpp"
+
+namespace scaratwin::sim {
+namespace {
+
+RobotModel config_robot() {
+  auto m = load_robot_config(SCARATWIN_CONFIG_FILE);
+  EXPECT_TRUE(m.ok());
+  return m.ok() ? *m : paper_robot();
+}
+
+void expect_site_matches_dh(const RobotModel& robot, int count, unsigned seed) {
+  auto sim = Simulation::create(robot);
+  ASSERT_TRUE(sim.ok()) << sim.error().message;
+  std::mt19937_64 rng(seed);
+  double worst_m = 0.0, worst_yaw = 0.0;
+  for (int i = 0; i < count; ++i) {
+    JointVector q{};
+    for (int j = 0; j < kNumJoints; ++j) {
+      // a margin beyond the limits: the model must agree everywhere
+      const double lo = robot.limits[j].min, hi = robot.limits[j].max, span = hi - lo;
+      q[j] = std::uniform_real_distribution<double>(lo - 0.1 * span, hi + 0.1 * span)(rng);
+    }
+    ASSERT_TRUE((*sim)->set_joints(q).ok());
+    const Eigen::Matrix4d x_bt = forward_transform(robot, q);
+    const ToolPose site = (*sim)->tool_pose();
+    const ToolPose dh = forward(robot, q);
+    worst_m = std::max({worst_m, std::abs(site.x_m - x_bt(0, 3)), std::abs(site.y_m - x_bt(1, 3)),
+                        std::abs(site.z_m - x_bt(2, 3))});
+    worst_yaw = std::max(worst_yaw, std::abs(wrap_angle(site.yaw_rad - dh.yaw_rad)));
+    const double* r =
+        (*sim)->data()->site_xmat + 9 * mj_name2id((*sim)->model(), mjOBJ_SITE, kToolSite);
+    for (int a = 0; a < 3; ++a) {
+      for (int b = 0; b < 3; ++b) ASSERT_NEAR(r[3 * a + b], x_bt(a, b), 1e-9) << i;
+    }
+  }
+  EXPECT_LT(worst_m, 1e-9);
+  EXPECT_LT(worst_yaw, 1e-9);
+}
+
+TEST(SimModel, ToolSiteMatchesDhForwardKinematics) {
+  expect_site_matches_dh(config_robot(), 2000, 7);
+}
+
+TEST(SimModel, ToolSiteMatchesDhWithOffsets) {
+  // a description with joint offsets and a different geometry still agrees
+  RobotModel robot = paper_robot();
+  robot.dh[0].theta_rad = 0.3;
+  robot.dh[0].d_m = 0.01;
+  robot.dh[1].theta_rad = -0.2;
+  robot.dh[2].theta_rad = 0.5;
+  robot.dh[3].theta_rad = 0.25;
+  robot.dh[1].a_m = 0.15;
+  robot.dh[3].a_m = 0.01;
+  expect_site_matches_dh(robot, 500, 11);
+}
+
+TEST(SimModel, NamesTheJointsSiteAndCamera) {
+  auto sim = Simulation::create(paper_robot());
+  ASSERT_TRUE(sim.ok());
+  const mjModel* m = (*sim)->model();
+  EXPECT_EQ(m->jnt_type[mj_name2id(m, mjOBJ_JOINT, "j1")], mjJNT_SLIDE);
+  for (const char* j : {"j2", "j3", "j4"}) {
+    EXPECT_EQ(m->jnt_type[mj_name2id(m, mjOBJ_JOINT, j)], mjJNT_HINGE) << j;
+  }
+  EXPECT_GE(mj_name2id(m, mjOBJ_SITE, "tool"), 0);
+  EXPECT_GE(mj_name2id(m, mjOBJ_CAMERA, "overhead"), 0);
+  for (const char* t : {"tray_red", "tray_green", "tray_blue"}) {
+    EXPECT_GE(mj_name2id(m, mjOBJ_BODY, t), 0) << t;
+  }
+}
+
+TEST(SimModel, RejectsBadOptionsNamingTheValue) {
+  MjcfOptions o;
+  o.cubes_per_color = 0;
+  auto x = make_mjcf(paper_robot(), o);
+  ASSERT_FALSE(x.ok());
+  EXPECT_NE(x.error().message.find("cubes_per_color = 0"), std::string::npos);
+}
+
+TEST(SimModel, UrdfHasTheFourJoints) {
+  auto u = make_urdf(paper_robot());
+  ASSERT_TRUE(u.ok());
+  for (const char* j : {"name=\"j1\" type=\"prismatic\"", "name=\"j2\" type=\"revolute\"",
+                        "name=\"j3\" type=\"revolute\"", "name=\"j4\" type=\"revolute\""}) {
+    EXPECT_NE(u->find(j), std::string::npos) << j;
+  }
+}
+
+TEST(SimModel, MujocoErrorsBecomeErrorsNotExits) {
+  auto sim = Simulation::create(paper_robot());
+  ASSERT_TRUE(sim.ok());
+  // a stack request far beyond the arena makes MuJoCo call mju_error, which would exit
+  struct Overflow {
+    mjData* d;
+    void operator()() { mj_stackAlloc(d, 2'000'000'000); }
+  } overflow{(*sim)->mutable_data()};
+  Status st = detail::mj_guarded(40, "test", overflow);
+  ASSERT_FALSE(st.ok());
+  EXPECT_EQ(st.error().code, 40);
+  EXPECT_NE(st.error().message.find("Stack overflow"), std::string::npos) << st.error().message;
+  // and the simulation still works afterwards
+  (*sim)->mutable_data()->pstack = 0;
+  EXPECT_TRUE((*sim)->step(10).ok());
+  // nested guards unwind to the innermost one
+  struct Inner {
+    Status result = Ok{};
+    void operator()() {
+      struct Boom {
+        void operator()() { mju_error("boom"); }
+      } boom;
+      result = detail::mj_guarded(1, "inner", boom);
+    }
+  } inner;
+  EXPECT_TRUE(detail::mj_guarded(2, "outer", inner).ok());
+  ASSERT_FALSE(inner.result.ok());
+  EXPECT_EQ(inner.result.error().message, "inner: MuJoCo error: boom");
+}
+
+}  // namespace
+}  // namespace scaratwin::sim
