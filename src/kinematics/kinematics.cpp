@@ -5,6 +5,7 @@
 
 #include <fmt/format.h>
 
+#include "fast_trig.hpp"
 #include "scaratwin/core/units.hpp"
 
 namespace scaratwin {
@@ -19,24 +20,112 @@ Error ik_error(IkError code, std::string message) {
   return Error{static_cast<int>(code), std::move(message)};
 }
 
-// Shifts `q` by whole turns into [lim.min, lim.max], choosing the shift nearest to `near`.
-// Returns false (leaving q unchanged) when no shift fits.
+// Shifts `q` by whole turns into [lim.min, lim.max], choosing the turn nearest to `near`.
+// Returns false (leaving q unchanged) when no shift fits. Written without data-dependent
+// branches: it sits in the IK hot path, where random targets defeat branch prediction.
 bool wrap_into(double& q, const JointLimit& lim, double near) {
-  double best = 0.0;
-  double best_d = INFINITY;
-  const double base = wrap_angle(q);
-  for (int k = -2; k <= 2; ++k) {
-    const double c = base + kTwoPi * k;
-    if (!lim.contains(c)) continue;
-    const double d = std::abs(c - near);
-    if (d < best_d) {
-      best_d = d;
-      best = c;
+  // the lowest turn at or above lim.min (k = 0 leaves q bit-exact).
+  const double u = (q - lim.min) * (1.0 / kTwoPi);
+  double k = static_cast<double>(static_cast<long long>(u));
+  k -= static_cast<double>(k > u);
+  const double c0 = k == 0.0 ? q : q - k * kTwoPi;
+  const double c1 = c0 + kTwoPi;  // the next turn, if the range spans more than one turn
+  const bool use_c1 = c1 <= lim.max && std::abs(c1 - near) < std::abs(c0 - near);
+  const double c = use_c1 ? c1 : c0;
+  const bool ok = c0 <= lim.max;
+  q = ok ? c : q;
+  return ok;
+}
+
+// The closed-form solution without limits: both elbow branches, angles not wrapped. Returns
+// 0 or the IkError code of a pose no elbow can reach.
+int solve_raw(const RobotModel& model, const ToolPose& pose, std::array<JointVector, 2>& raw,
+              double& r_m) {
+  const auto& dh = model.dh;
+  if (!std::isfinite(pose.x_m) || !std::isfinite(pose.y_m) || !std::isfinite(pose.z_m) ||
+      !std::isfinite(pose.yaw_rad)) {
+    return static_cast<int>(IkError::kNotFinite);
+  }
+  // z: the prismatic joint alone.
+  const double d1 = pose.z_m - dh[0].d_m - dh[1].d_m - dh[2].d_m - dh[3].d_m;
+  if (!model.limits[0].contains(d1)) return static_cast<int>(IkError::kZOutOfTravel);
+  // planar part: wrist centre relative to the shoulder axis.
+  double ux = pose.x_m, uy = pose.y_m;
+  if (dh[3].a_m != 0.0) {
+    ux -= dh[3].a_m * std::cos(pose.yaw_rad);
+    uy -= dh[3].a_m * std::sin(pose.yaw_rad);
+  }
+  if (dh[0].theta_rad == 0.0) {
+    ux -= dh[0].a_m;
+  } else {
+    ux -= dh[0].a_m * std::cos(dh[0].theta_rad);
+    uy -= dh[0].a_m * std::sin(dh[0].theta_rad);
+  }
+  const double a2 = dh[1].a_m, a3 = dh[2].a_m;
+  const double r2 = ux * ux + uy * uy;
+  r_m = std::sqrt(r2);
+  double c3 = (r2 - a2 * a2 - a3 * a3) / (2.0 * a2 * a3);
+  if (c3 > 1.0 + kReachSlack) return static_cast<int>(IkError::kBeyondReach);
+  if (c3 < -1.0 - kReachSlack) return static_cast<int>(IkError::kInsideDeadZone);
+  c3 = std::clamp(c3, -1.0, 1.0);
+  const double s3 = std::sqrt((1.0 - c3) * (1.0 + c3));
+  const double q3p = detail::atan2_fast(s3, c3);
+  // phi1 = atan2(uy, ux) - atan2(k2, k1), written as one atan2 of the rotated vector.
+  const double k1 = a2 + a3 * c3, k2 = a3 * s3;
+  const double off1 = dh[0].theta_rad + dh[1].theta_rad;
+  for (int b = 0; b < 2; ++b) {
+    const double sk2 = b == 0 ? k2 : -k2;
+    const double phi1 = detail::atan2_fast(k1 * uy - sk2 * ux, k1 * ux + sk2 * uy);
+    const double elbow = b == 0 ? q3p : -q3p;
+    JointVector& q = raw[b];
+    q[0] = d1;
+    q[1] = phi1 - off1;
+    q[2] = elbow - dh[2].theta_rad;
+    q[3] = pose.yaw_rad - phi1 - elbow - dh[3].theta_rad;
+  }
+  return 0;
+}
+
+// The message of a solve_raw failure.
+Error raw_error(const RobotModel& model, const ToolPose& pose, int code, double r_m) {
+  const auto& dh = model.dh;
+  switch (static_cast<IkError>(code)) {
+    case IkError::kNotFinite:
+      return ik_error(IkError::kNotFinite, fmt::format("target ({}, {}, {}, {}) is not finite",
+                                                       pose.x_m, pose.y_m, pose.z_m, pose.yaw_rad));
+    case IkError::kZOutOfTravel: {
+      const double off = dh[0].d_m + dh[1].d_m + dh[2].d_m + dh[3].d_m;
+      return ik_error(
+          IkError::kZOutOfTravel,
+          fmt::format("z = {:.6f} m needs d1 = {:.6f} m, outside the Z travel "
+                      "[{}, {}] m (tool z from {:.4f} to {:.4f} m)",
+                      pose.z_m, pose.z_m - off, model.limits[0].min, model.limits[0].max,
+                      model.limits[0].min + off, model.limits[0].max + off));
+    }
+    case IkError::kBeyondReach:
+      return ik_error(IkError::kBeyondReach,
+                      fmt::format("target ({:.6f}, {:.6f}) m is {:.6f} m from the shoulder "
+                                  "axis, beyond the reach of {:.6f} m",
+                                  pose.x_m, pose.y_m, r_m, dh[1].a_m + dh[2].a_m));
+    default:
+      return ik_error(IkError::kInsideDeadZone,
+                      fmt::format("target ({:.6f}, {:.6f}) m is {:.6f} m from the shoulder "
+                                  "axis, inside the dead zone of radius {:.6f} m",
+                                  pose.x_m, pose.y_m, r_m, std::abs(dh[1].a_m - dh[2].a_m)));
+  }
+}
+
+// Wraps the revolute joints of `q` into their limits near `near`; returns the first joint
+// that does not fit, or -1.
+int wrap_joints(const RobotModel& model, JointVector& q, const JointVector& near) {
+  int bad = -1;
+  for (int j = 1; j < kNumJoints; ++j) {
+    if (!wrap_into(q[j], model.limits[j], near[j])) {
+      q[j] = wrap_angle(q[j]);
+      if (bad < 0) bad = j;
     }
   }
-  if (best_d == INFINITY) return false;
-  q = best;
-  return true;
+  return bad;
 }
 
 }  // namespace
@@ -47,8 +136,10 @@ const char* joint_name(int index) {
 }
 
 double wrap_angle(double rad) {
-  double r = std::remainder(rad, kTwoPi);  // in [-pi, pi]
+  if (rad > -kPi && rad <= kPi) return rad;
+  double r = rad - kTwoPi * std::floor((rad + kPi) / kTwoPi);  // in [-pi, pi)
   if (r <= -kPi) r += kTwoPi;
+  if (r > kPi) r -= kTwoPi;
   return r;
 }
 
@@ -90,8 +181,17 @@ ToolPose forward(const RobotModel& model, const JointVector& q) {
   const double p2 = p1 + q[2] + dh[2].theta_rad;
   const double p3 = p2 + q[3] + dh[3].theta_rad;
   ToolPose p;
-  p.x_m = dh[0].a_m * std::cos(p0) + dh[1].a_m * std::cos(p1) + dh[2].a_m * std::cos(p2);
-  p.y_m = dh[0].a_m * std::sin(p0) + dh[1].a_m * std::sin(p1) + dh[2].a_m * std::sin(p2);
+  double s1, c1, s2, c2;
+  detail::sincos_fast(p1, s1, c1);
+  detail::sincos_fast(p2, s2, c2);
+  p.x_m = dh[1].a_m * c1 + dh[2].a_m * c2;
+  p.y_m = dh[1].a_m * s1 + dh[2].a_m * s2;
+  if (p0 == 0.0) {
+    p.x_m += dh[0].a_m;
+  } else {
+    p.x_m += dh[0].a_m * std::cos(p0);
+    p.y_m += dh[0].a_m * std::sin(p0);
+  }
   if (dh[3].a_m != 0.0) {
     p.x_m += dh[3].a_m * std::cos(p3);
     p.y_m += dh[3].a_m * std::sin(p3);
@@ -102,110 +202,72 @@ ToolPose forward(const RobotModel& model, const JointVector& q) {
 }
 
 Result<IkBranches> inverse_branches(const RobotModel& model, const ToolPose& pose) {
-  const auto& dh = model.dh;
-  if (!std::isfinite(pose.x_m) || !std::isfinite(pose.y_m) || !std::isfinite(pose.z_m) ||
-      !std::isfinite(pose.yaw_rad)) {
-    return ik_error(IkError::kNotFinite, fmt::format("target ({}, {}, {}, {}) is not finite",
-                                                     pose.x_m, pose.y_m, pose.z_m, pose.yaw_rad));
-  }
-  // z: the prismatic joint alone.
-  const double d1 = pose.z_m - dh[0].d_m - dh[1].d_m - dh[2].d_m - dh[3].d_m;
-  if (!model.limits[0].contains(d1)) {
-    return ik_error(
-        IkError::kZOutOfTravel,
-        fmt::format("z = {:.6f} m needs d1 = {:.6f} m, outside the Z travel "
-                    "[{}, {}] m (tool z from {:.4f} to {:.4f} m)",
-                    pose.z_m, d1, model.limits[0].min, model.limits[0].max,
-                    pose.z_m - d1 + model.limits[0].min, pose.z_m - d1 + model.limits[0].max));
-  }
-  // planar part: wrist centre relative to the shoulder axis.
-  double px = pose.x_m, py = pose.y_m;
-  if (dh[3].a_m != 0.0) {
-    px -= dh[3].a_m * std::cos(pose.yaw_rad);
-    py -= dh[3].a_m * std::sin(pose.yaw_rad);
-  }
-  const double ux = px - dh[0].a_m * std::cos(dh[0].theta_rad);
-  const double uy = py - dh[0].a_m * std::sin(dh[0].theta_rad);
-  const double a2 = dh[1].a_m, a3 = dh[2].a_m;
-  const double r2 = ux * ux + uy * uy;
-  double c3 = (r2 - a2 * a2 - a3 * a3) / (2.0 * a2 * a3);
-  if (c3 > 1.0 + kReachSlack) {
-    return ik_error(IkError::kBeyondReach,
-                    fmt::format("target ({:.6f}, {:.6f}) m is {:.6f} m from the shoulder axis, "
-                                "beyond the reach of {:.6f} m",
-                                pose.x_m, pose.y_m, std::sqrt(r2), a2 + a3));
-  }
-  if (c3 < -1.0 - kReachSlack) {
-    return ik_error(IkError::kInsideDeadZone,
-                    fmt::format("target ({:.6f}, {:.6f}) m is {:.6f} m from the shoulder axis, "
-                                "inside the dead zone of radius {:.6f} m",
-                                pose.x_m, pose.y_m, std::sqrt(r2), std::abs(a2 - a3)));
-  }
-  c3 = std::clamp(c3, -1.0, 1.0);
-  const double s3 = std::sqrt((1.0 - c3) * (1.0 + c3));
-  const double base_angle = std::atan2(uy, ux);
   IkBranches out;
-  for (int b = 0; b < 2; ++b) {
-    const double s = b == 0 ? s3 : -s3;
-    const double q3p = std::atan2(s, c3);
-    const double phi1 = base_angle - std::atan2(a3 * s, a2 + a3 * c3);
-    const double phi2 = phi1 + q3p;
-    JointVector& q = out.solutions[b];
-    q[0] = d1;
-    q[1] = phi1 - dh[0].theta_rad - dh[1].theta_rad;
-    q[2] = q3p - dh[2].theta_rad;
-    q[3] = pose.yaw_rad - phi2 - dh[3].theta_rad;
-    for (int j = 1; j < kNumJoints; ++j) {
-      if (!wrap_into(q[j], model.limits[j], model.home[j])) q[j] = wrap_angle(q[j]);
-    }
+  double r_m = 0.0;
+  if (int code = solve_raw(model, pose, out.solutions, r_m); code != 0) {
+    return raw_error(model, pose, code, r_m);
   }
+  for (JointVector& q : out.solutions) wrap_joints(model, q, model.home);
   return out;
 }
 
+namespace {
+
+// Both branches wrapped near the seed, the valid ones first and nearest first. Returns the
+// number of valid solutions; on 0, `bad` holds the failing joint of each branch.
+int solve_within_limits(const RobotModel& model, std::array<JointVector, 2>& q,
+                        const JointVector& seed, std::array<int, 2>& bad) {
+  for (int b = 0; b < 2; ++b) {
+    bad[b] = wrap_joints(model, q[b], seed);
+  }
+  if (bad[0] >= 0 && bad[1] >= 0) return 0;
+  if (bad[0] >= 0) {
+    q[0] = q[1];
+    return 1;
+  }
+  if (bad[1] >= 0 || q[0] == q[1]) return 1;  // one valid, or stretched/folded (same pose)
+  if (joint_distance2(q[1], seed) < joint_distance2(q[0], seed)) std::swap(q[0], q[1]);
+  return 2;
+}
+
+Error limit_error(const RobotModel& model, const std::array<JointVector, 2>& q,
+                  const std::array<int, 2>& bad, const JointVector& seed) {
+  // report the branch nearer the seed.
+  const int b = joint_distance2(q[0], seed) <= joint_distance2(q[1], seed) ? 0 : 1;
+  const int j = bad[b];
+  const IkError code = j == 1 ? IkError::kJ2Limit : j == 2 ? IkError::kJ3Limit : IkError::kJ4Limit;
+  return ik_error(code,
+                  fmt::format("no elbow solution within the joint limits: {} = {:.3f} deg is "
+                              "outside [{:.1f}, {:.1f}] deg (other elbow: {} out of limits)",
+                              joint_name(j), rad_to_deg(q[b][j]), rad_to_deg(model.limits[j].min),
+                              rad_to_deg(model.limits[j].max), joint_name(bad[1 - b])));
+}
+
+}  // namespace
+
 Result<IkSolutions> inverse_all(const RobotModel& model, const ToolPose& pose,
                                 const JointVector& seed) {
-  auto branches = inverse_branches(model, pose);
-  if (!branches) return branches.error();
   IkSolutions out;
-  std::array<int, 2> bad_joint{-1, -1};
-  for (int b = 0; b < 2; ++b) {
-    JointVector q = branches->solutions[b];
-    // choose the turn of each angle nearest to the seed.
-    for (int j = 1; j < kNumJoints; ++j) wrap_into(q[j], model.limits[j], seed[j]);
-    bad_joint[b] = first_joint_outside_limits(model, q);
-    if (bad_joint[b] >= 0) continue;
-    if (out.count == 1 && joint_distance2(out.solutions[0], q) == 0.0) continue;  // same pose
-    out.solutions[out.count++] = q;
+  double r_m = 0.0;
+  if (int code = solve_raw(model, pose, out.solutions, r_m); code != 0) {
+    return raw_error(model, pose, code, r_m);
   }
-  if (out.count == 0) {
-    // report the branch nearer the seed.
-    const int b = joint_distance2(branches->solutions[0], seed) <=
-                          joint_distance2(branches->solutions[1], seed)
-                      ? 0
-                      : 1;
-    const int j = bad_joint[b];
-    const JointVector& q = branches->solutions[b];
-    const IkError code = j == 1   ? IkError::kJ2Limit
-                         : j == 2 ? IkError::kJ3Limit
-                                  : IkError::kJ4Limit;
-    return ik_error(code,
-                    fmt::format("no elbow solution within the joint limits: {} = {:.3f} deg is "
-                                "outside [{:.1f}, {:.1f}] deg (other elbow: {} out of limits)",
-                                joint_name(j), rad_to_deg(q[j]), rad_to_deg(model.limits[j].min),
-                                rad_to_deg(model.limits[j].max), joint_name(bad_joint[1 - b])));
-  }
-  if (out.count == 2 &&
-      joint_distance2(out.solutions[1], seed) < joint_distance2(out.solutions[0], seed)) {
-    std::swap(out.solutions[0], out.solutions[1]);
-  }
+  std::array<int, 2> bad{};
+  out.count = solve_within_limits(model, out.solutions, seed, bad);
+  if (out.count == 0) return limit_error(model, out.solutions, bad, seed);
   return out;
 }
 
 Result<JointVector> inverse(const RobotModel& model, const ToolPose& pose,
                             const JointVector& seed) {
-  auto all = inverse_all(model, pose, seed);
-  if (!all) return all.error();
-  return all->solutions[0];
+  std::array<JointVector, 2> q;
+  double r_m = 0.0;
+  if (int code = solve_raw(model, pose, q, r_m); code != 0) {
+    return raw_error(model, pose, code, r_m);
+  }
+  std::array<int, 2> bad{};
+  if (solve_within_limits(model, q, seed, bad) == 0) return limit_error(model, q, bad, seed);
+  return q[0];
 }
 
 Eigen::Matrix4d jacobian(const RobotModel& model, const JointVector& q) {

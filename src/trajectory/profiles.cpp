@@ -51,24 +51,27 @@ JointTrajectory quintic(const JointVector& q0, const JointVector& q1, double dur
                         int samples) {
   SCARATWIN_CHECK(samples >= 2 && duration_s > 0.0, "quintic needs >= 2 samples and T > 0");
   JointTrajectory out;
-  out.samples.reserve(samples);
-  const double T = duration_s;
+  out.samples.resize(static_cast<size_t>(samples));
+  const double inv_t = 1.0 / duration_s;
+  const double inv_t2 = inv_t * inv_t;
+  const double step = 1.0 / (samples - 1);
+  JointVector d;
+  for (int j = 0; j < kNumJoints; ++j) d[j] = q1[j] - q0[j];
   for (int k = 0; k < samples; ++k) {
-    const double tau = static_cast<double>(k) / (samples - 1);
+    const double tau = k * step;
     const double t2 = tau * tau, t3 = t2 * tau;
     const double s = t3 * (10.0 - 15.0 * tau + 6.0 * t2);
-    const double sd = 30.0 * t2 * (1.0 - 2.0 * tau + t2) / T;
-    const double sdd = 60.0 * tau * (1.0 - 3.0 * tau + 2.0 * t2) / (T * T);
-    JointSample smp;
-    smp.t_s = tau * T;
+    const double sd = 30.0 * t2 * (1.0 - 2.0 * tau + t2) * inv_t;
+    const double sdd = 60.0 * tau * (1.0 - 3.0 * tau + 2.0 * t2) * inv_t2;
+    JointSample& smp = out.samples[static_cast<size_t>(k)];
+    smp.t_s = tau * duration_s;
     for (int j = 0; j < kNumJoints; ++j) {
-      const double d = q1[j] - q0[j];
-      smp.q[j] = k == samples - 1 ? q1[j] : q0[j] + d * s;
-      smp.qd[j] = d * sd;
-      smp.qdd[j] = d * sdd;
+      smp.q[j] = q0[j] + d[j] * s;
+      smp.qd[j] = d[j] * sd;
+      smp.qdd[j] = d[j] * sdd;
     }
-    out.samples.push_back(smp);
   }
+  out.samples.back().q = q1;  // exact end point
   return out;
 }
 
