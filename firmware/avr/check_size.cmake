@@ -1,0 +1,16 @@
+# Fails the firmware build when flash (text + data) or RAM (data + bss) exceeds its budget.
+# Usage: cmake -DELF=... -DSIZE=avr-size -DFLASH_BUDGET=n -DRAM_BUDGET=n -P check_size.cmake
+execute_process(COMMAND ${SIZE} -B ${ELF} OUTPUT_VARIABLE out RESULT_VARIABLE rc)
+if(NOT rc EQUAL 0)
+  message(FATAL_ERROR "avr-size failed on ${ELF}")
+endif()
+string(REGEX MATCH "\n[ \t]*([0-9]+)[ \t]+([0-9]+)[ \t]+([0-9]+)" _ "${out}")
+math(EXPR flash "${CMAKE_MATCH_1} + ${CMAKE_MATCH_2}")
+math(EXPR ram "${CMAKE_MATCH_2} + ${CMAKE_MATCH_3}")
+message(STATUS "firmware ${ELF}: flash ${flash} / ${FLASH_BUDGET} bytes, RAM ${ram} / ${RAM_BUDGET} bytes")
+if(flash GREATER FLASH_BUDGET)
+  message(FATAL_ERROR "firmware flash ${flash} bytes exceeds the budget of ${FLASH_BUDGET}")
+endif()
+if(ram GREATER RAM_BUDGET)
+  message(FATAL_ERROR "firmware RAM ${ram} bytes (data + bss) exceeds the budget of ${RAM_BUDGET}")
+endif()

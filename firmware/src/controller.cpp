@@ -1,0 +1,425 @@
+#include "controller.h"
+
+#include <avr/interrupt.h>
+
+#include "board.h"
+#include "buttons.h"
+#include "clock.h"
+#include "fw_config.h"
+#include "homing.h"
+#include "jog.h"
+#include "motion.h"
+#include "report.h"
+#include "scaratwin/protocol/codec_core.h"
+#include "serial.h"
+#include "servo.h"
+#include "settings.h"
+#include "settings_store.h"
+#include "stepper.h"
+
+namespace fw {
+namespace {
+
+namespace core = scaratwin::protocol::core;
+using core::code_id;
+
+// unsolicited events (docs/protocol.md section 8)
+enum Event : uint8_t {
+  kEvHomed = 1,
+  kEvEndstopHit = 2,
+  kEvTrajectoryDone = 3,
+  kEvJogButton = 4,
+  kEvUnderrun = 5,
+  kEvStoppedEv = 6,
+  kEvHeldEv = 7,
+  kEvResumed = 8,
+  kEvHomingFailed = 9,
+};
+
+// ST flag bits (the endstop bits 32/64/128 are added by report.cpp)
+enum Flag : uint8_t { kFlagHomed = 1, kFlagMoving = 2, kFlagTrajectory = 4, kFlagHold = 8,
+                      kFlagHalted = 16 };
+
+constexpr uint8_t kReplyRoom = 72;  // transmit space needed before a line is taken in
+
+Settings g_settings;
+char g_line[kLineMax];
+core::Decoder g_decoder(core::kSerialHostToDevice, g_line, kLineMax);
+
+bool g_homed = false;
+bool g_halted = false;
+volatile bool g_rt_stop = false;    // set by '!' in the receive interrupt
+volatile bool g_rt_resume = false;  // set by '~'
+bool g_stop_pending = false;        // EV 6 once the step generator confirms
+
+struct Trajectory {
+  bool active;
+  uint16_t n;
+  uint16_t next_seq;  // next TP expected
+  uint16_t done;      // points reached
+  bool underrun_sent;
+  PlanState plan;
+} g_traj;
+
+// ---- replies ----
+
+void send(core::Encoder& enc) {
+  if (enc.end()) serial_write(enc.data(), (uint8_t)enc.size());
+}
+
+void reply_ak(char a, char b, bool with_value, int32_t value) {
+  char buf[24];
+  const char code[2] = {a, b};
+  core::Encoder enc(core::kSerialDeviceToHost, buf, sizeof buf);
+  enc.begin(code_id('A', 'K'));
+  enc.add_text(code, 2);
+  if (with_value) enc.add_i32(value);
+  send(enc);
+}
+
+void reply_er(uint8_t err, bool with_detail, int32_t detail) {
+  char buf[24];
+  core::Encoder enc(core::kSerialDeviceToHost, buf, sizeof buf);
+  enc.begin(code_id('E', 'R'));
+  enc.add_i32(err);
+  if (with_detail) enc.add_i32(detail);
+  send(enc);
+}
+
+void send_ev(uint8_t event, bool with_value, int32_t value) {
+  char buf[24];
+  core::Encoder enc(core::kSerialDeviceToHost, buf, sizeof buf);
+  enc.begin(code_id('E', 'V'));
+  enc.add_i32(event);
+  if (with_value) enc.add_i32(value);
+  send(enc);
+}
+
+void send_hello() {
+  char buf[40];
+  core::Encoder enc(core::kSerialDeviceToHost, buf, sizeof buf);
+  enc.begin(code_id('H', 'I'));
+  enc.add_i32(FW_PROTO_VERSION);
+  enc.add_text(FW_BOARD_NAME);
+  enc.add_text(FW_VERSION);
+  send(enc);
+}
+
+// ---- state ----
+
+bool moving() { return jog_active() || homing_active() || stepper_active(); }
+
+uint8_t flags() {
+  uint8_t f = 0;
+  if (g_homed) f |= kFlagHomed;
+  if (moving()) f |= kFlagMoving;
+  if (g_traj.active) f |= kFlagTrajectory;
+  if (stepper_holding()) f |= kFlagHold;
+  if (g_halted) f |= kFlagHalted;
+  return f;
+}
+
+uint8_t queue_free() { return stepper_queue().free_slots(); }
+
+MotorLimits limits() {
+  MotorLimits l;
+  for (uint8_t i = 0; i < kNumAxes; ++i) {
+    l.max_speed[i] = g_settings.max_speed;
+    l.max_accel[i] = g_settings.max_accel;
+  }
+  return l;
+}
+
+void end_trajectory() {
+  g_traj.active = false;
+  stepper_set_run(true);
+}
+
+// Everything a stop cancels; the step generator already dropped its queue.
+void cancel_motion() {
+  end_trajectory();
+  homing_abort();
+  jog_reset();
+}
+
+// A motion command is refused while halted or held (14), or busy with another motion (9).
+bool motion_refused(bool allow_jog) {
+  if (g_halted || stepper_holding()) {
+    reply_er(core::kErrHalted, false, 0);
+    return true;
+  }
+  if (g_traj.active || homing_active() || (!allow_jog && jog_active())) {
+    reply_er(core::kErrBusy, false, 0);
+    return true;
+  }
+  return false;
+}
+
+// ---- commands ----
+
+void cmd_tb(const core::Packet& p) {
+  int32_t n = p.i32(0);
+  if (n < 1 || n > 65535) return reply_er(core::kErrBadValue, true, 0);
+  if (motion_refused(false)) return;
+  if (!g_homed) return reply_er(core::kErrNotHomed, false, 0);
+  g_traj.active = true;
+  g_traj.n = (uint16_t)n;
+  g_traj.next_seq = 0;
+  g_traj.done = 0;
+  g_traj.underrun_sent = false;
+  stepper_positions(g_traj.plan.position);
+  for (uint8_t i = 0; i < kNumAxes; ++i) g_traj.plan.velocity[i] = 0;
+  stepper_set_run(false);  // pre-fill: starts when full or complete
+  stepper_set_wrist_base(servo_target(kServoWrist));
+  reply_ak('T', 'B', true, queue_free());
+}
+
+void cmd_tp(const core::Packet& p) {
+  if (g_halted || stepper_holding()) return reply_er(core::kErrHalted, false, 0);
+  if (!g_traj.active) return reply_er(core::kErrSequence, true, 0);
+  if (p.i32(0) != (int32_t)g_traj.next_seq)
+    return reply_er(core::kErrSequence, true, g_traj.next_seq);
+  MotionQueue& q = stepper_queue();
+  if (q.free_slots() == 0) return reply_er(core::kErrQueueFull, true, 0);
+  TimedPoint pt;
+  pt.seq = g_traj.next_seq;
+  int32_t dt = p.i32(1);
+  if (dt < 1 || dt > (int32_t)kMaxPointMs) return reply_er(core::kErrBadValue, true, 1);
+  pt.dt_ms = (uint16_t)dt;
+  for (uint8_t i = 0; i < kNumAxes; ++i) pt.target[i] = p.i32((uint8_t)(2 + i));
+  int32_t wrist = p.i32(5);
+  if (wrist < 0 || wrist > 18000) return reply_er(core::kErrJointLimit, true, 3);
+  pt.wrist_cdeg = (int16_t)wrist;
+  pt.grip_cdeg = -1;
+  if (p.field_count > 6) {
+    int32_t grip = p.i32(6);
+    if (grip < 0 || grip > 18000) return reply_er(core::kErrBadValue, true, 6);
+    pt.grip_cdeg = (int16_t)grip;
+  }
+  pt.last = g_traj.next_seq + 1u == g_traj.n;
+  Segment seg;
+  uint8_t axis = 0;
+  PlanError e = plan_point(limits(), g_traj.plan, pt, seg, &axis);
+  if (e != kPlanOk) return reply_er(core::kErrBadValue, true, 2 + axis);
+  q.push(seg);
+  g_traj.next_seq++;
+  g_traj.underrun_sent = false;
+  if (pt.last || q.free_slots() == 0) stepper_set_run(true);
+  reply_ak('T', 'P', true, q.free_slots());
+}
+
+void cmd_cf(const core::Packet& p) {
+  int32_t value = 0;
+  if (p.field_count == 1) {
+    if (settings_get(g_settings, p.i32(0), &value) != kSettingOk)
+      return reply_er(core::kErrBadValue, true, 0);
+    return reply_ak('C', 'F', true, value);
+  }
+  SettingError e = settings_set(g_settings, p.i32(0), p.i32(1));
+  if (e == kSettingUnknownKey) return reply_er(core::kErrBadValue, true, 0);
+  if (e == kSettingBadValue) return reply_er(core::kErrBadValue, true, 1);
+  settings_save(g_settings);
+  settings_get(g_settings, p.i32(0), &value);
+  reply_ak('C', 'F', true, value);
+}
+
+void cmd_jg(const core::Packet& p) {
+  int32_t axis = p.i32(0);
+  int32_t delta = p.i32(1);
+  if (axis < 0 || axis > 3) return reply_er(core::kErrBadValue, true, 0);
+  if (delta < -1000000 || delta > 1000000) return reply_er(core::kErrBadValue, true, 1);
+  if (motion_refused(true)) return;
+  if (axis == 3) {
+    int32_t w = (int32_t)servo_target(kServoWrist) + delta;
+    if (w < 0 || w > 18000) return reply_er(core::kErrJointLimit, true, 3);
+    servo_set_target(kServoWrist, (int16_t)w);
+  } else {
+    jog_move((uint8_t)axis, delta);
+  }
+  reply_ak('J', 'G', false, 0);
+}
+
+void handle_packet(const core::Packet& p) {
+  switch (p.code) {
+    case code_id('H', 'I'):
+      if (p.i32(0) != FW_PROTO_VERSION) return reply_er(core::kErrVersion, true, FW_PROTO_VERSION);
+      return send_hello();
+    case code_id('P', 'I'):
+      return reply_ak('P', 'I', p.field_count > 0, p.field_count > 0 ? p.i32(0) : 0);
+    case code_id('S', 'R'): {
+      int32_t r = p.i32(0);
+      if (r < 0 || r > 1000) return reply_er(core::kErrBadValue, true, 0);
+      report_set_rate((uint16_t)r, clock_micros());
+      return reply_ak('S', 'R', true, r);
+    }
+    case code_id('Q', 'S'):
+      report_now(flags(), queue_free());
+      return;
+    case code_id('H', 'M'):
+      if (stepper_holding()) return reply_er(core::kErrHalted, false, 0);
+      if (g_traj.active || homing_active() || jog_active())
+        return reply_er(core::kErrBusy, false, 0);
+      g_halted = false;
+      g_homed = false;
+      homing_start(g_settings);
+      return reply_ak('H', 'M', false, 0);
+    case code_id('T', 'B'):
+      return cmd_tb(p);
+    case code_id('T', 'P'):
+      return cmd_tp(p);
+    case code_id('G', 'R'): {
+      int32_t g = p.i32(0);
+      if (g < 0 || g > 18000) return reply_er(core::kErrBadValue, true, 0);
+      servo_set_target(kServoGrip, (int16_t)g);
+      return reply_ak('G', 'R', true, g);
+    }
+    case code_id('J', 'G'):
+      return cmd_jg(p);
+    case code_id('S', 'P'):
+      stepper_request_stop();
+      g_halted = true;
+      g_stop_pending = true;
+      cancel_motion();
+      return reply_ak('S', 'P', false, 0);
+    case code_id('C', 'F'):
+      return cmd_cf(p);
+    default:
+      return reply_er(core::kErrUnknownCode, false, 0);
+  }
+}
+
+void read_serial() {
+  if (serial_take_overrun()) {
+    // bytes were lost: the line they belonged to cannot be trusted
+    g_decoder.reset();
+    reply_er(core::kErrQueueFull, true, 0);
+  }
+  while (serial_tx_free() >= kReplyRoom) {
+    int16_t b = serial_read();
+    if (b < 0) return;
+    core::Event ev;
+    uint8_t type = g_decoder.push((uint8_t)b, &ev);
+    if (type == core::kEventPacket) {
+      handle_packet(g_decoder.packet());
+    } else if (type == core::kEventError) {
+      reply_er(ev.error, ev.error != core::kErrUnknownCode, ev.detail);
+    }
+  }
+}
+
+void handle_realtime() {
+  if (g_rt_stop) {
+    g_rt_stop = false;
+    g_halted = true;
+    g_stop_pending = true;
+    cancel_motion();
+  }
+  if (g_rt_resume) {
+    g_rt_resume = false;
+    bool was = g_halted || stepper_holding();
+    g_halted = false;
+    stepper_request_resume();
+    if (was) send_ev(kEvResumed, false, 0);
+  }
+}
+
+void handle_stepper_events() {
+  uint8_t hit = 0;
+  uint16_t done_seq = 0;
+  int16_t grip = 0;
+  uint8_t ev = stepper_take_events(&hit, &done_seq, &grip);
+  if ((ev & kEvStopped) && g_stop_pending) {
+    g_stop_pending = false;
+    send_ev(kEvStoppedEv, false, 0);
+  }
+  if (ev & kEvHeld) send_ev(kEvHeldEv, false, 0);
+  if (ev & kEvGrip) servo_set_target(kServoGrip, grip);
+  if (g_traj.active && (ev & kEvPointDone)) g_traj.done = (uint16_t)(done_seq + 1);
+  if (g_traj.active && (ev & kEvLastDone)) {
+    end_trajectory();
+    send_ev(kEvTrajectoryDone, true, g_traj.n);
+  }
+  uint8_t failed_axis = 0;
+  HomingResult h = homing_update(g_settings, ev, hit, &failed_axis);
+  if (h == kHomingDone) {
+    g_homed = true;
+    send_ev(kEvHomed, false, 0);
+  } else if (h == kHomingFailed) {
+    g_halted = true;
+    jog_reset();
+    send_ev(kEvHomingFailed, true, failed_axis);
+  } else if ((ev & kEvEndstop) && h == kHomingIdle) {
+    // a switch closed during normal motion: the generator stopped; lost position
+    cancel_motion();
+    g_halted = true;
+    g_homed = false;
+    for (uint8_t i = 0; i < kNumAxes; ++i)
+      if (hit & (1u << i)) send_ev(kEvEndstopHit, true, i);
+  }
+  // a trajectory whose queue ran dry before its last point holds there (EV 5 once)
+  if (g_traj.active && !stepper_active() && g_traj.next_seq < g_traj.n &&
+      g_traj.done == g_traj.next_seq && g_traj.done > 0 && !g_traj.underrun_sent) {
+    g_traj.underrun_sent = true;
+    send_ev(kEvUnderrun, true, g_traj.next_seq);
+  }
+}
+
+void handle_buttons(uint32_t now) {
+  uint8_t pressed = 0, released = 0;
+  if (!buttons_poll(now, &pressed, &released)) return;
+  const bool allowed = !g_halted && !stepper_holding() && !g_traj.active && !homing_active();
+  for (uint8_t b = 0; b < kNumButtons; ++b) {
+    const uint8_t bit = (uint8_t)(1u << b);
+    const uint8_t axis = b / 2;
+    const float dir = (b & 1) ? -1.0f : 1.0f;
+    if (pressed & bit) {
+      send_ev(kEvJogButton, true, b);
+      if (allowed) jog_run(axis, dir * (float)g_settings.jog_speed);
+    }
+    if ((released & bit) && allowed) jog_run(axis, 0);
+  }
+}
+
+}  // namespace
+
+void controller_realtime(uint8_t byte) {
+  if (byte == core::kRealtimeStop) {
+    stepper_request_stop();
+    g_rt_stop = true;
+  } else if (byte == core::kRealtimeHold) {
+    stepper_request_hold();
+  } else if (byte == core::kRealtimeResume) {
+    g_rt_resume = true;
+  }
+}
+
+void controller_init() {
+  settings_load(g_settings);
+  clock_init();
+  serial_init(115200, controller_realtime);
+  stepper_init();
+  buttons_init();
+  servo_init(g_settings.servo_min_us, g_settings.servo_max_us,
+             (int16_t)g_settings.grip_open_cdeg, 0);
+  g_traj.active = false;
+  stepper_set_run(true);
+  sei();
+  report_set_rate(g_settings.report_hz, clock_micros());
+  send_hello();
+}
+
+void controller_poll() {
+  const uint32_t now = clock_micros();
+  handle_realtime();
+  read_serial();
+  handle_stepper_events();
+  handle_buttons(now);
+  jog_feed(g_settings, homing_active() ? g_settings.homing_speed : g_settings.jog_speed);
+  if (g_traj.active) servo_set_target(kServoWrist, stepper_wrist_goal());
+  servo_update(now, g_settings.servo_speed);
+  report_poll(now, flags(), queue_free());
+}
+
+bool controller_busy() { return g_rt_stop || g_rt_resume || serial_available(); }
+
+}  // namespace fw

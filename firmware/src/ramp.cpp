@@ -1,0 +1,86 @@
+#include "ramp.h"
+
+#include <math.h>
+
+namespace fw {
+namespace {
+
+float approach(float v, float goal, float dv) {
+  if (v < goal) return v + dv < goal ? v + dv : goal;
+  return v - dv > goal ? v - dv : goal;
+}
+
+int32_t round_to_int(float x) { return (int32_t)(x < 0 ? x - 0.5f : x + 0.5f); }
+
+}  // namespace
+
+void AxisRamp::move_by(int32_t distance) {
+  // continue from the current speed if already moving; restart the step count
+  pos_ = pos_ - (float)emitted_;
+  emitted_ = 0;
+  target_ = distance;
+  mode_ = kPosition;
+}
+
+void AxisRamp::run_at(float speed) {
+  if (mode_ != kVelocity) {
+    pos_ = pos_ - (float)emitted_;
+    emitted_ = 0;
+  }
+  v_target_ = speed;
+  mode_ = kVelocity;
+}
+
+void AxisRamp::reset() {
+  mode_ = kIdle;
+  v_ = 0;
+  pos_ = 0;
+  emitted_ = 0;
+  target_ = 0;
+  v_target_ = 0;
+}
+
+int16_t AxisRamp::next(float dt_s, float max_speed, float accel) {
+  if (mode_ == kIdle) return 0;
+  const float dv = accel * dt_s;
+  if (mode_ == kVelocity) {
+    float goal = v_target_;
+    if (goal > max_speed) goal = max_speed;
+    if (goal < -max_speed) goal = -max_speed;
+    v_ = approach(v_, goal, dv);
+    pos_ += v_ * dt_s;
+    int32_t whole = round_to_int(pos_);
+    int16_t out = (int16_t)(whole - emitted_);
+    emitted_ = whole;
+    if (v_ == 0 && v_target_ == 0) {
+      pos_ = (float)emitted_;
+      mode_ = kIdle;
+    }
+    return out;
+  }
+  // position mode: the fastest speed from which the rest can still be stopped in
+  float rest = (float)target_ - pos_;
+  float sign = rest < 0 ? -1.0f : 1.0f;
+  float reach = sqrtf(2.0f * accel * (rest * sign));
+  float goal = sign * (reach < max_speed ? reach : max_speed);
+  v_ = approach(v_, goal, dv);
+  float step = v_ * dt_s;
+  if ((step * sign >= rest * sign) || (rest * sign < 0.5f && v_ * sign <= dv)) {
+    // arrives in this interval
+    pos_ = (float)target_;
+    v_ = 0;
+    mode_ = kIdle;
+  } else {
+    pos_ += step;
+  }
+  int32_t whole = mode_ == kIdle ? target_ : round_to_int(pos_);
+  int16_t out = (int16_t)(whole - emitted_);
+  emitted_ = whole;
+  if (mode_ == kIdle) {
+    pos_ = 0;
+    emitted_ = 0;
+  }
+  return out;
+}
+
+}  // namespace fw

@@ -1,0 +1,60 @@
+#include "report.h"
+
+#include "clock.h"
+#include "fw_config.h"
+#include "scaratwin/protocol/codec_core.h"
+#include "serial.h"
+#include "servo.h"
+#include "stepper.h"
+
+namespace fw {
+namespace {
+
+namespace core = scaratwin::protocol::core;
+
+uint16_t g_rate_hz = 0;
+uint32_t g_period_us = 0;
+uint32_t g_next_us = 0;
+uint16_t g_seq = 0;
+
+}  // namespace
+
+void report_set_rate(uint16_t rate_hz, uint32_t now_us) {
+  g_rate_hz = rate_hz;
+  g_period_us = rate_hz ? 1000000u / rate_hz : 0;
+  g_next_us = now_us;
+}
+
+uint16_t report_rate() { return g_rate_hz; }
+
+bool report_now(uint8_t flags, uint8_t queue_free) {
+  const uint32_t t = clock_micros();
+  int32_t pos[kNumAxes];
+  stepper_positions(pos);
+  const uint8_t endstops = stepper_endstops();
+  char buf[kLineMax];
+  core::Encoder enc(core::kSerialDeviceToHost, buf, sizeof buf);
+  enc.begin(core::code_id('S', 'T'));
+  enc.add_i32(g_seq);
+  enc.add_u32(t);
+  for (uint8_t i = 0; i < kNumAxes; ++i) enc.add_i32(pos[i]);
+  enc.add_i32(servo_output_cdeg(kServoWrist));
+  enc.add_i32(servo_output_cdeg(kServoGrip));
+  enc.add_i32((int32_t)flags | ((int32_t)endstops << 5));
+  enc.add_i32(queue_free);
+  g_seq = (uint16_t)(g_seq + 1);
+  if (!enc.end()) return false;
+  return serial_write(buf, (uint8_t)enc.size());
+}
+
+void report_poll(uint32_t now_us, uint8_t flags, uint8_t queue_free) {
+  if (g_period_us == 0) return;
+  int32_t late = (int32_t)(now_us - g_next_us);
+  if (late < 0) return;
+  uint32_t missed = (uint32_t)late / g_period_us;  // deadlines the loop did not see
+  g_seq = (uint16_t)(g_seq + missed);
+  g_next_us += (missed + 1) * g_period_us;
+  report_now(flags, queue_free);
+}
+
+}  // namespace fw

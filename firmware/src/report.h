@@ -1,0 +1,21 @@
+// State reports (ST): sampled from the actual step counters and the servo pulses being output,
+// never from commanded values, each with a sequence number (wrapping at 65536, shared with the
+// reports sent for QS) and the device timestamp in microseconds taken at the sample. Periodic
+// reports are due every 1e6 / rate_hz us on a fixed grid (no drift); a report that cannot be
+// sent (transmit buffer full because the rate is beyond what the baud rate carries) or a
+// deadline the loop missed still uses up its sequence number, so the host sees the loss as a
+// gap instead of a silently lower rate.
+#pragma once
+
+#include <stdint.h>
+
+namespace fw {
+
+void report_set_rate(uint16_t rate_hz, uint32_t now_us);
+uint16_t report_rate();
+// Sends the periodic report if due. `flags` and `queue_free` as in docs/protocol.md.
+void report_poll(uint32_t now_us, uint8_t flags, uint8_t queue_free);
+// Sends one report now (QS); false if the transmit buffer had no room (the number is used).
+bool report_now(uint8_t flags, uint8_t queue_free);
+
+}  // namespace fw

@@ -1,0 +1,251 @@
+#include "stepper.h"
+
+#include <avr/interrupt.h>
+#include <avr/io.h>
+
+#include "board.h"
+
+namespace fw {
+namespace {
+
+MotionQueue g_queue;
+Dda g_dda;
+volatile bool g_active = false;  // g_dda holds a segment being executed
+volatile bool g_run = false;
+volatile bool g_stop_req = false;
+volatile bool g_hold_req = false;
+volatile bool g_held = false;
+volatile uint32_t g_scale_q16 = 65536;  // speed scale of the segment clock (1.0 = 65536)
+uint16_t g_hold_dec = 65535;
+uint8_t g_seg_flags = 0;
+uint16_t g_seg_seq = 0;
+int16_t g_seg_grip = 0;
+volatile int16_t g_wrist_from = 0;
+volatile int16_t g_wrist_to = 0;
+volatile int32_t g_pos[kNumAxes] = {0, 0, 0};
+volatile uint8_t g_events = 0;
+volatile uint8_t g_endstop_hit = 0;
+volatile uint16_t g_done_seq = 0;
+volatile int16_t g_grip_req = 0;
+volatile uint8_t g_guard = 0;
+uint8_t g_endstops_prev = 0;
+volatile uint8_t g_endstops = 0;
+
+inline uint8_t read_endstops() {
+  // switches pull the input low when closed
+  uint8_t m = 0;
+  if (!PIN_READ(PIN_ENDSTOP_Z)) m |= 1;
+  if (!PIN_READ(PIN_ENDSTOP_J2)) m |= 2;
+  if (!PIN_READ(PIN_ENDSTOP_J3)) m |= 4;
+  return m;
+}
+
+inline void set_dirs(uint8_t negative) {
+  // DIR high = towards positive counts
+  if (negative & 1) PIN_LOW(PIN_DIR_Z); else PIN_HIGH(PIN_DIR_Z);
+  if (negative & 2) PIN_LOW(PIN_DIR_J2); else PIN_HIGH(PIN_DIR_J2);
+  if (negative & 4) PIN_LOW(PIN_DIR_J3); else PIN_HIGH(PIN_DIR_J3);
+}
+
+// Loads the next queued segment; false if none may start.
+inline bool load_next() {
+  if (!g_run || g_hold_req) return false;
+  const Segment* s = g_queue.front();
+  if (s == nullptr) return false;
+  g_dda.start(*s);
+  g_hold_dec = s->hold_dec_q16;
+  g_seg_flags = s->flags;
+  g_seg_seq = s->seq;
+  g_seg_grip = s->grip_cdeg;
+  if (s->flags & kSegTrajectory) {
+    g_wrist_from = g_wrist_to;
+    g_wrist_to = s->wrist_cdeg;
+  }
+  g_queue.pop();
+  set_dirs(g_dda.dir_negative);
+  g_active = true;
+  return true;
+}
+
+inline void halt_all() {
+  g_active = false;
+  g_queue.clear();
+  g_scale_q16 = 65536;
+}
+
+}  // namespace
+
+// Interruptible so that the servo pulses and the serial port keep their timing; it finishes
+// well within one tick, so it never nests with itself.
+ISR(TIMER2_COMPA_vect, ISR_NOBLOCK) {
+  PIN_LOW(PIN_STEP_Z);
+  PIN_LOW(PIN_STEP_J2);
+  PIN_LOW(PIN_STEP_J3);
+  const uint8_t es = read_endstops();
+  const uint8_t closed_now = (uint8_t)(es & ~g_endstops_prev);
+  g_endstops_prev = es;
+  g_endstops = es;
+  if (g_stop_req) {
+    g_stop_req = false;
+    g_hold_req = false;
+    g_held = false;
+    halt_all();
+    g_events = (uint8_t)(g_events | kEvStopped);
+    return;
+  }
+  if (closed_now & g_guard) {
+    halt_all();
+    g_endstop_hit = (uint8_t)(g_endstop_hit | (closed_now & g_guard));
+    g_events = (uint8_t)(g_events | kEvEndstop);
+    return;
+  }
+  if (!g_active) {
+    if (g_hold_req && !g_held) {
+      g_held = true;
+      g_scale_q16 = 0;
+      g_events = (uint8_t)(g_events | kEvHeld);
+    }
+    load_next();
+    return;  // the first step comes one tick after DIR was set
+  }
+  // feed hold: ramp the segment clock at the acceleration limit
+  uint32_t scale = g_scale_q16;
+  if (g_hold_req) {
+    if (scale > g_hold_dec) {
+      scale -= g_hold_dec;
+    } else {
+      scale = 0;
+      if (!g_held) {
+        g_held = true;
+        g_events = (uint8_t)(g_events | kEvHeld);
+      }
+    }
+  } else if (scale < 65536) {
+    scale += g_hold_dec;
+    if (scale > 65536) scale = 65536;
+  }
+  g_scale_q16 = scale;
+  uint16_t rate = (uint16_t)(scale >> 8);
+  if (rate == 0) return;
+  const uint8_t mask = g_dda.tick(rate);
+  const uint8_t neg = g_dda.dir_negative;
+  if (mask & 1) {
+    PIN_HIGH(PIN_STEP_Z);
+    g_pos[0] += (neg & 1) ? -1 : 1;
+  }
+  if (mask & 2) {
+    PIN_HIGH(PIN_STEP_J2);
+    g_pos[1] += (neg & 2) ? -1 : 1;
+  }
+  if (mask & 4) {
+    PIN_HIGH(PIN_STEP_J3);
+    g_pos[2] += (neg & 4) ? -1 : 1;
+  }
+  if (g_dda.done()) {
+    g_active = false;
+    uint8_t ev = g_events;
+    if (g_seg_flags & kSegTrajectory) {
+      g_done_seq = g_seg_seq;
+      ev |= kEvPointDone;
+      if (g_seg_flags & kSegLast) ev |= kEvLastDone;
+      if (g_seg_flags & kSegGrip) {
+        g_grip_req = g_seg_grip;
+        ev |= kEvGrip;
+      }
+    }
+    g_events = ev;
+    load_next();  // continues without a gap; its first step is due next tick
+  }
+}
+
+void stepper_init() {
+  PIN_OUTPUT(PIN_STEP_Z);
+  PIN_OUTPUT(PIN_STEP_J2);
+  PIN_OUTPUT(PIN_STEP_J3);
+  PIN_OUTPUT(PIN_DIR_Z);
+  PIN_OUTPUT(PIN_DIR_J2);
+  PIN_OUTPUT(PIN_DIR_J3);
+  PIN_OUTPUT(PIN_ENABLE);
+  PIN_LOW(PIN_ENABLE);  // drivers enabled (active low), holding torque from reset
+  PIN_INPUT_PULLUP(PIN_ENDSTOP_Z);
+  PIN_INPUT_PULLUP(PIN_ENDSTOP_J2);
+  PIN_INPUT_PULLUP(PIN_ENDSTOP_J3);
+  // Timer2 CTC, F_CPU / 8 = 2 MHz, 100 counts = 20 kHz
+  TCCR2A = (1 << WGM21);
+  TCCR2B = (1 << CS21);
+  OCR2A = (uint8_t)(F_CPU / 8 / kTickHz - 1);
+  TIMSK2 = (1 << OCIE2A);
+}
+
+MotionQueue& stepper_queue() { return g_queue; }
+
+void stepper_positions(int32_t out[kNumAxes]) {
+  uint8_t sreg = SREG;
+  cli();
+  for (uint8_t i = 0; i < kNumAxes; ++i) out[i] = g_pos[i];
+  SREG = sreg;
+}
+
+void stepper_set_position(uint8_t axis, int32_t value) {
+  uint8_t sreg = SREG;
+  cli();
+  g_pos[axis] = value;
+  SREG = sreg;
+}
+
+void stepper_set_run(bool run) { g_run = run; }
+void stepper_request_stop() { g_stop_req = true; }
+void stepper_request_hold() { g_hold_req = true; }
+
+void stepper_request_resume() {
+  uint8_t sreg = SREG;
+  cli();
+  g_hold_req = false;
+  g_held = false;
+  SREG = sreg;
+}
+
+bool stepper_active() { return g_active || (g_run && !g_queue.empty()); }
+bool stepper_held() { return g_held; }
+bool stepper_holding() { return g_hold_req; }
+
+uint8_t stepper_take_events(uint8_t* endstops, uint16_t* done_seq, int16_t* grip_cdeg) {
+  uint8_t sreg = SREG;
+  cli();
+  uint8_t ev = g_events;
+  g_events = 0;
+  *endstops = g_endstop_hit;
+  g_endstop_hit = 0;
+  *done_seq = g_done_seq;
+  *grip_cdeg = g_grip_req;
+  SREG = sreg;
+  return ev;
+}
+
+uint8_t stepper_endstops() { return g_endstops; }
+
+void stepper_guard_endstops(uint8_t mask) { g_guard = mask; }
+
+int16_t stepper_wrist_goal() {
+  uint8_t sreg = SREG;
+  cli();
+  bool active = g_active && (g_seg_flags & kSegTrajectory);
+  uint32_t t = g_dda.time;
+  uint32_t len = g_dda.length;
+  int16_t from = g_wrist_from;
+  int16_t to = g_wrist_to;
+  SREG = sreg;
+  if (!active || len == 0) return to;
+  float f = (float)t / (float)len;
+  return (int16_t)((float)from + (float)(to - from) * f);
+}
+
+void stepper_set_wrist_base(int16_t cdeg) {
+  uint8_t sreg = SREG;
+  cli();
+  g_wrist_from = cdeg;
+  g_wrist_to = cdeg;
+  SREG = sreg;
+}
+
+}  // namespace fw
