@@ -184,9 +184,23 @@ GraspResult Simulation::grip() {
   mju_negQuat(q1_inv, q1);
   mju_mulQuat(data + 6, q1_inv, q2);
   data[10] = 1.0;
-  m_->eq_active[ids_.cube_weld[k]] = 1;
   held_ = k;
+  // in simulate mode the weld holds the cube with dynamics; in mirror mode the robot is
+  // kinematic (its joints are overwritten every step), so the cube is carried kinematically
+  m_->eq_active[ids_.cube_weld[k]] = mode_ == Mode::kSimulate ? 1 : 0;
   return GraspResult{true, k};
+}
+
+void Simulation::carry_held_cube() {
+  if (held_ < 0 || mode_ != Mode::kMirror) return;
+  const int b1 = ids_.gripper_body;
+  const mjtNum* data = m_->eq_data + mjNEQDATA * ids_.cube_weld[held_];
+  mjtNum* p2 = d_->qpos + ids_.cube_qpos[held_];
+  mju_rotVecMat(p2, data + 3, d_->xmat + 9 * b1);
+  for (int i = 0; i < 3; ++i) p2[i] += d_->xpos[3 * b1 + i];
+  mju_mulQuat(p2 + 3, d_->xquat + 4 * b1, data + 6);
+  mju_normalize4(p2 + 3);
+  for (int i = 0; i < 6; ++i) d_->qvel[ids_.cube_dof[held_] + i] = 0.0;
 }
 
 void Simulation::release() {

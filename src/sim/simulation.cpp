@@ -211,6 +211,8 @@ void Simulation::set_mode(Mode mode) {
   if (mode_ == Mode::kMirror) {
     for (int j = 0; j < kNumJoints; ++j) d_->qfrc_applied[ids_.dof[j]] = 0.0;
   }
+  // a held cube: welded in simulate mode, carried kinematically in mirror mode
+  if (held_ >= 0) m_->eq_active[ids_.cube_weld[held_]] = mode_ == Mode::kSimulate ? 1 : 0;
 }
 
 JointWarning Simulation::push_warning(int joint, double value) {
@@ -238,6 +240,10 @@ Result<std::vector<JointWarning>> Simulation::set_joints(const JointVector& q) {
   auto warnings = note_limits(q);
   target_ = q;
   apply_mirror_pose();
+  if (held_ >= 0) {
+    mj_kinematics(m_, d_);
+    carry_held_cube();
+  }
   if (Status st = forward(); !st) return st.error();
   return warnings;
 }
@@ -380,6 +386,7 @@ Status Simulation::step(int n) {
           if (!s->active_[k]) s->park(static_cast<int>(k));
         }
         mj_kinematics(s->m_, s->d_);
+        s->carry_held_cube();
         s->record_tool_path();
       }
     }

@@ -9,7 +9,10 @@
 //  - simulate: position actuators follow a commanded joint trajectory with dynamics; gravity
 //    and the joints' damping are fed forward so that the servos track without sag.
 // Cubes obey physics in both. A grasp looks for a cube between the fingers (the paper's
-// detector volume) and holds it with a weld; a release lets it fall.
+// detector volume) and holds it: with a weld in simulate mode (its relative pose written from
+// the current poses before activation), carried kinematically in mirror mode (a weld to a
+// kinematic robot would pump the robot's overwritten motion into the cube). A release lets
+// it fall.
 //
 // Units: SI (m, rad, s). Frames: positions are in the robot base B (the MJCF world frame);
 // quaternions are (w, x, y, z) of the body in B.
@@ -169,6 +172,7 @@ class Simulation {
   void run_due_gripper_events();
   void record_tool_path();
   void set_fingers(bool closed);
+  void carry_held_cube();
   std::vector<JointWarning> note_limits(const JointVector& q);
   JointWarning push_warning(int joint, double value);
   bool cube_active(int id) const { return active_[id]; }
