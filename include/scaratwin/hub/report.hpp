@@ -1,0 +1,34 @@
+// Self-contained HTML reports of twin runs (inline SVG plots, no scripts, no network): joint
+// values virtual vs physical, mirror latency histogram, top and side views of the tool paths,
+// tool deviation over time, and our figures beside the paper's.
+#pragma once
+
+#include <filesystem>
+
+#include "scaratwin/core/result.hpp"
+#include "scaratwin/hub/twin_db.hpp"
+
+namespace scaratwin {
+
+// Metric names shared by the hub (which records them) and the report (which shows them).
+namespace metric {
+inline constexpr const char* kLatencyMeanMs = "mirror_latency_mean_ms";
+inline constexpr const char* kLatencyP99Ms = "mirror_latency_p99_ms";
+inline constexpr const char* kHubToSimMeanMs = "hub_to_sim_latency_mean_ms";
+inline constexpr const char* kLostFrames = "mirror_lost_frames";
+inline constexpr const char* kFrames = "mirror_frames";
+inline constexpr const char* kToolErrTargetPhysMm = "tool_error_target_physical_mm";
+inline constexpr const char* kToolErrTargetVirtMm = "tool_error_target_virtual_mm";
+inline constexpr const char* kToolErrVirtPhysMm = "tool_error_virtual_physical_mm";
+inline constexpr const char* kReplayToolMaxMm = "replay_tool_deviation_max_mm";
+inline constexpr const char* kReplayToolRmsMm = "replay_tool_deviation_rms_mm";
+inline constexpr const char* kReplayFinalMm = "replay_final_tool_error_mm";
+inline constexpr const char* kCubesInTray = "cubes_in_tray";
+inline constexpr const char* kDesyncAlarms = "desync_alarms";
+}  // namespace metric
+
+// Writes the report of `run` (and of the runs whose parent it is) to `html`.
+Status write_report(TwinDb& db, const RobotModel& model, int64_t run,
+                    const std::filesystem::path& html);
+
+}  // namespace scaratwin

@@ -1,0 +1,202 @@
+// Twin database, figures, reports and the statement language.
+#include <unistd.h>
+
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+
+#include <fmt/format.h>
+#include <gtest/gtest.h>
+
+#include "scaratwin/core/units.hpp"
+#include "scaratwin/hub/analysis.hpp"
+#include "scaratwin/hub/report.hpp"
+#include "scaratwin/hub/script.hpp"
+#include "scaratwin/hub/twin_db.hpp"
+
+namespace scaratwin {
+namespace {
+
+namespace fs = std::filesystem;
+
+fs::path temp_dir(const char* name) {
+  fs::path p = fs::temp_directory_path() / fmt::format("scaratwin-{}-{}", name, getpid());
+  fs::remove_all(p);
+  fs::create_directories(p);
+  return p;
+}
+
+std::string read_file(const fs::path& p) {
+  std::ifstream in(p);
+  std::stringstream ss;
+  ss << in.rdbuf();
+  return ss.str();
+}
+
+TEST(TwinDb, KeepsEverythingAcrossReopen) {
+  const fs::path dir = temp_dir("db");
+  int64_t run = 0;
+  {
+    auto db = TwinDb::open(dir / "twin.db");
+    ASSERT_TRUE(db) << db.error().message;
+    auto r = (*db)->begin_run("mirror", "test");
+    ASSERT_TRUE(r);
+    run = *r;
+    for (int i = 0; i < 5000; ++i) {
+      JointRecord rec{i * 0.01, i % 65536, {0.1, 0.01 * i, -0.01 * i, 0.5}, 10.0};
+      ASSERT_TRUE((*db)->add_sample(run, SampleSource::kPhysical, rec));
+      ASSERT_TRUE((*db)->add_latency(run, {i, i * 10000, i * 10000 + 5000, i * 10000 + 5300}));
+    }
+    ASSERT_TRUE((*db)->add_event(run, 1.0, "alarm", "desync, 3 mm"));
+    ASSERT_TRUE((*db)->add_metric(run, metric::kLostFrames, 0, "frames"));
+    ASSERT_TRUE((*db)->add_image(run, 2.0, "shot.png", std::string("\x89PNG\r\n\x1a\n\0x", 10)));
+    ASSERT_TRUE((*db)->end_run(run, "ok", 50.0));
+  }
+  auto db = TwinDb::open(dir / "twin.db");
+  ASSERT_TRUE(db);
+  auto samples = (*db)->samples(run, SampleSource::kPhysical);
+  ASSERT_TRUE(samples);
+  ASSERT_EQ(samples->size(), 5000u);
+  EXPECT_DOUBLE_EQ((*samples)[4999].q[1], 0.01 * 4999);
+  EXPECT_EQ((*samples)[12].seq, 12);
+  EXPECT_EQ(*(*db)->count("latencies", run), 5000);
+  EXPECT_EQ(*(*db)->count("images", run), 1);
+  auto info = (*db)->run(run);
+  ASSERT_TRUE(info);
+  EXPECT_EQ(info->status, "ok");
+  EXPECT_EQ(info->kind, "mirror");
+  EXPECT_FALSE((*db)->count("no_such_table", run));
+  EXPECT_FALSE((*db)->run(9999));
+  // WAL mode: the write-ahead log sits beside the database while it is open.
+  EXPECT_TRUE(fs::exists(dir / "twin.db-wal"));
+  // CSV export.
+  ASSERT_TRUE((*db)->export_csv(run, dir / "csv"));
+  const std::string csv = read_file(dir / "csv" / "samples.csv");
+  EXPECT_EQ(csv.rfind("source,t_s,seq,d1_m", 0), 0u);
+  EXPECT_EQ(std::count(csv.begin(), csv.end(), '\n'), 5001);
+  EXPECT_NE(read_file(dir / "csv" / "events.csv").find("\"desync, 3 mm\""), std::string::npos);
+  fs::remove_all(dir);
+}
+
+TEST(TwinDb, RefusesAnUnwritablePath) {
+  auto db = TwinDb::open("/proc/forbidden/twin.db");
+  ASSERT_FALSE(db);
+  EXPECT_NE(db.error().message.find("/proc/forbidden/twin.db"), std::string::npos);
+}
+
+TEST(Analysis, SummarizesAndCountsLostFrames) {
+  const Stats s = summarize({1, 2, 3, 4, 100});
+  EXPECT_DOUBLE_EQ(s.mean, 22.0);
+  EXPECT_DOUBLE_EQ(s.p50, 3.0);
+  EXPECT_DOUBLE_EQ(s.max, 100.0);
+  std::vector<LatencyRecord> f;
+  // seq 65534, 65535, 0, 3 (two lost across the wrap), device clock wrapping too.
+  const int64_t seqs[] = {65534, 65535, 0, 3};
+  for (int i = 0; i < 4; ++i) {
+    const int64_t dev = (4294967296LL - 20000 + i * 10000) % 4294967296LL;
+    const int64_t hub = 1000000 + i * 10000 + (i == 3 ? 2000 : 0);
+    f.push_back({seqs[i], dev, hub, hub + 500});
+  }
+  const LatencyFigures lf = latency_figures(f, 0.004);
+  EXPECT_EQ(lf.lost_frames, 2);
+  EXPECT_NEAR(lf.hub_to_sim_ms.mean, 0.5, 1e-9);
+  // the fastest frames took wire time + 0.5 ms; the late one 2 ms more.
+  EXPECT_NEAR(lf.device_to_sim_ms.p50, 4.5, 1e-9);
+  EXPECT_NEAR(lf.device_to_sim_ms.max, 6.5, 1e-9);
+}
+
+TEST(Analysis, ComparesRunsAndRaisesDesync) {
+  const RobotModel m = paper_robot();
+  std::vector<JointRecord> a, b;
+  for (int i = 0; i <= 100; ++i) {
+    a.push_back({i * 0.01, i, {0.1, 0.3 * i / 100.0, 0.5, 1.0}, 0});
+    b.push_back({i * 0.01, i, {0.1, 0.3 * i / 100.0, 0.5, 1.0}, 0});
+  }
+  Deviation same = compare_runs(m, a, b);
+  EXPECT_DOUBLE_EQ(same.tool_max_m, 0.0);
+  for (auto& r : b) r.q[0] += 0.002;  // 2 mm lower/higher in Z
+  Deviation d = compare_runs(m, a, b);
+  EXPECT_NEAR(d.tool_max_m, 0.002, 1e-12);
+  EXPECT_NEAR(d.joint_rms[0], 0.002, 1e-12);
+  EXPECT_NEAR(d.tool_final_m, 0.002, 1e-12);
+
+  DesyncMonitor mon(0.003, 3);
+  const JointVector q{0.1, 0.2, 0.3, 0.4};
+  JointVector slipped = q;
+  slipped[1] += 100.0 / 945.0;  // 100 lost steps on J2
+  EXPECT_FALSE(mon.check(m, q, q));
+  EXPECT_FALSE(mon.check(m, q, slipped));
+  EXPECT_FALSE(mon.check(m, q, slipped));
+  EXPECT_TRUE(mon.check(m, q, slipped));
+  EXPECT_FALSE(mon.check(m, q, slipped));  // raised once
+  EXPECT_TRUE(mon.raised());
+  EXPECT_GT(mon.worst_deviation_m(), 0.003);
+}
+
+TEST(Report, WritesPlotsAndThePapersFigures) {
+  const fs::path dir = temp_dir("report");
+  auto db = TwinDb::open(dir / "twin.db");
+  ASSERT_TRUE(db);
+  auto demo = (*db)->begin_run("demo", "report test");
+  auto mirror = (*db)->begin_run("mirror", "buttons", *demo);
+  ASSERT_TRUE(demo && mirror);
+  for (int i = 0; i < 200; ++i) {
+    const JointVector q{0.1, std::sin(i * 0.05), 0.5, 1.0};
+    ASSERT_TRUE((*db)->add_sample(*mirror, SampleSource::kPhysical, {i * 0.01, i, q, 0}));
+    ASSERT_TRUE((*db)->add_sample(*mirror, SampleSource::kVirtual, {i * 0.01 + 0.004, i, q, 0}));
+    ASSERT_TRUE((*db)->add_latency(*mirror, {i, i * 10000, i * 10000, i * 10000 + 300 + i}));
+  }
+  ASSERT_TRUE((*db)->add_metric(*mirror, metric::kLatencyMeanMs, 5.2, "ms"));
+  ASSERT_TRUE((*db)->end_run(*mirror, "ok", 2.0));
+  ASSERT_TRUE((*db)->end_run(*demo, "ok", 3.0));
+  ASSERT_TRUE(write_report(**db, paper_robot(), *demo, dir / "report.html"));
+  const std::string html = read_file(dir / "report.html");
+  EXPECT_NE(html.find("Our figures beside the paper"), std::string::npos);
+  EXPECT_NE(html.find("74.4 / 72.5 / 76.4"), std::string::npos);
+  EXPECT_NE(html.find("<td>5.2</td>"), std::string::npos);
+  EXPECT_GE(std::count(html.begin(), html.end(), '<'), 100);
+  size_t svgs = 0;
+  for (size_t p = html.find("<svg"); p != std::string::npos; p = html.find("<svg", p + 1)) ++svgs;
+  EXPECT_GE(svgs, 8u);  // 4 joints, 2 path views, deviation, latency histogram
+  EXPECT_NE(html.find("tool path, top view"), std::string::npos);
+  EXPECT_NE(html.find("mirror latency"), std::string::npos);
+  EXPECT_FALSE(write_report(**db, paper_robot(), 12345, dir / "x.html"));
+  fs::remove_all(dir);
+}
+
+TEST(Script, ParsesStatementsInSiUnits) {
+  auto s = parse_script(
+      "# sort one cube\nhome\nspawn red 0.18 0.08\nmove 0.18 0.08 -0.02 90  # above\n"
+      "\ngrip\nmovej 0.1 10 20 30\nwait 0.5\nshoot out.png\n",
+      "demo.txt");
+  ASSERT_TRUE(s) << s.error().message;
+  ASSERT_EQ(s->size(), 7u);
+  EXPECT_EQ((*s)[0].kind, StatementKind::kHome);
+  EXPECT_EQ((*s)[1].kind, StatementKind::kSpawn);
+  EXPECT_EQ((*s)[1].text, "red");
+  EXPECT_EQ((*s)[2].line, 4);
+  EXPECT_TRUE((*s)[2].has_yaw);
+  EXPECT_NEAR((*s)[2].numbers[3], kPi / 2, 1e-15);
+  EXPECT_NEAR((*s)[4].numbers[2], deg_to_rad(20), 1e-15);
+  EXPECT_EQ((*s)[6].text, "out.png");
+}
+
+TEST(Script, ErrorsNameTheLine) {
+  auto bad = parse_script("home\nmove 0.1 0.2\n", "a.txt");
+  ASSERT_FALSE(bad);
+  EXPECT_EQ(bad.error().message.rfind("a.txt:2: 'move' takes 3 to 4 numbers, got 2", 0), 0u)
+      << bad.error().message;
+  auto unknown = parse_script("home\n\nfly 1 2\n", "b.txt");
+  ASSERT_FALSE(unknown);
+  EXPECT_EQ(unknown.error().message.rfind("b.txt:3: unknown statement 'fly'", 0), 0u);
+  auto nan = parse_script("move 0.1 nan 0\n", "c.txt");
+  ASSERT_FALSE(nan);
+  EXPECT_NE(nan.error().message.find("'nan' is not a number"), std::string::npos);
+  auto color = parse_statement("spawn purple 0.1 0.1", 0);
+  ASSERT_FALSE(color);
+  EXPECT_NE(color.error().message.find("unknown colour 'purple'"), std::string::npos);
+}
+
+}  // namespace
+}  // namespace scaratwin
