@@ -385,6 +385,9 @@ bool Decoder::finish_line(Event* event) {
 bool Decoder::validate(uint16_t n, Event* event) {
   const char* s = buffer_;
   const char delim = link_->delimiter;
+  packet_.line = s;
+  packet_.line_length = n;
+  packet_.field_count = 0;
   // any byte that can never be in a packet.
   for (uint16_t i = 0; i < n; ++i) {
     if (!is_graphic(s[i])) return fail(event, kErrBadCharacter, i, 0);
@@ -410,6 +413,7 @@ bool Decoder::validate(uint16_t n, Event* event) {
     if (count < 255) ++count;
     start = static_cast<uint16_t>(i + 1);
   }
+  packet_.field_count = count < kMaxFields ? count : kMaxFields;
   if (count < spec->min_fields || count > spec->max_fields) {
     return fail(event, kErrWrongFieldCount, count, code);
   }
@@ -439,9 +443,6 @@ bool Decoder::validate(uint16_t n, Event* event) {
   }
   packet_.code = code;
   packet_.spec = spec;
-  packet_.field_count = count;
-  packet_.line = s;
-  packet_.line_length = n;
   event->type = kEventPacket;
   return true;
 }

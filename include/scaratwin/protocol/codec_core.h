@@ -127,6 +127,8 @@ extern const LinkSpec kTcpSimToHub;         // hub decodes this
 const CodeSpec* find_code(const LinkSpec& link, uint16_t code);
 
 // A decoded packet. A view into the decoder's line buffer: valid until the next feed().
+// After a kEventError for a complete line, `line`, `line_length`, `field_count` (at most
+// kMaxFields) and the field offsets and lengths describe the rejected line.
 struct Packet {
   uint16_t code;         // code_id of the two letters
   const CodeSpec* spec;  // the code's entry in the link table

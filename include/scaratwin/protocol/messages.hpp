@@ -1,0 +1,295 @@
+// Typed protocol messages (docs/protocol.md), one struct per code and direction, in SI units.
+//
+// The wire carries mm, degrees, centidegrees and milliseconds; these structs carry metres,
+// radians and seconds, converted at the encode/decode edge in one place
+// (src/protocol/wire_units.hpp). Two kinds of values keep their wire unit on purpose:
+// motor positions in steps (converting them to joints needs the robot description:
+// kinematics/motor.hpp) and timestamps in wrapping microseconds (`t_us`, modulo 2^32, exact).
+//
+// The four direction variants (SerialToDevice, SerialFromDevice, TcpToSim, TcpFromSim) list
+// what each receiver can get; codec.hpp encodes and decodes them.
+#pragma once
+
+#include <array>
+#include <cstdint>
+#include <optional>
+#include <string>
+#include <variant>
+#include <vector>
+
+#include "scaratwin/kinematics/robot_model.hpp"
+#include "scaratwin/protocol/codec_core.h"
+
+namespace scaratwin::protocol {
+
+using core::kProtocolVersion;
+using ErrorCode = core::ErrorCode;
+
+// --- shared by both links -----------------------------------------------------------------
+
+// HI request (hub -> simulator, host -> device).
+struct Hello {
+  std::int32_t version = kProtocolVersion;
+
+  friend bool operator==(const Hello&, const Hello&) = default;
+};
+// HI reply (simulator -> hub, device -> host).
+struct PeerHello {
+  std::int32_t version = kProtocolVersion;
+  std::string device;            // [A-Za-z0-9_.-]{1,32}, e.g. "scara-uno", "scaratwin-sim"
+  std::string software_version;  // same alphabet, e.g. "0.1.0"
+
+  friend bool operator==(const PeerHello&, const PeerHello&) = default;
+};
+// PI: ping; the reply is Ack{"PI", token}.
+struct Ping {
+  std::optional<std::int32_t> token;
+
+  friend bool operator==(const Ping&, const Ping&) = default;
+};
+// QS: query one state report (DeviceState on serial, SimState on TCP).
+struct QueryState {
+  friend bool operator==(const QueryState&, const QueryState&) = default;
+};
+// SP: stop. Serial: clear the queue and decelerate; TCP: hold the current joints.
+struct Stop {
+  friend bool operator==(const Stop&, const Stop&) = default;
+};
+// AK: the request with `code` (two upper-case letters) was done; `value` per code.
+struct Ack {
+  std::string code;
+  std::optional<std::int32_t> value;
+
+  friend bool operator==(const Ack&, const Ack&) = default;
+};
+// ER: refused or not understood. `code` is an ErrorCode (docs/protocol.md section 6).
+struct ErrorReply {
+  std::int32_t code = core::kErrInternal;
+  std::optional<std::int32_t> detail;
+
+  friend bool operator==(const ErrorReply&, const ErrorReply&) = default;
+};
+
+// --- physical link (serial): host -> device ------------------------------------------------
+
+// Motors counted in steps from the joint zero: Z, J2, J3 (J3 includes the belt coupling).
+using MotorSteps = std::array<std::int32_t, 3>;
+
+// SR: periodic DeviceState reports, 0 = off, 1..1000 Hz.
+struct SetReportRate {
+  std::int32_t rate_hz = 0;
+
+  friend bool operator==(const SetReportRate&, const SetReportRate&) = default;
+};
+// HM: home Z, J2, J3 against their endstops.
+struct Home {
+  friend bool operator==(const Home&, const Home&) = default;
+};
+// TB: begin a trajectory of `points` (1..65535) TrajectoryPoint packets.
+struct TrajectoryBegin {
+  std::int32_t points = 0;
+
+  friend bool operator==(const TrajectoryBegin&, const TrajectoryBegin&) = default;
+};
+// TP: one timed point: absolute motor targets reached `dt_s` after the previous point
+// (1 ms .. 65.535 s, sent in whole ms); wrist and optional gripper servo angles in rad
+// (0..pi, sent in centidegrees).
+struct TrajectoryPoint {
+  std::int32_t seq = 0;  // 0..points-1
+  double dt_s = 0.0;
+  MotorSteps steps{};
+  double wrist_rad = 0.0;
+  std::optional<double> grip_rad;
+
+  friend bool operator==(const TrajectoryPoint&, const TrajectoryPoint&) = default;
+};
+// GR on serial: gripper servo angle in rad (0..pi).
+struct SetGripper {
+  double angle_rad = 0.0;
+
+  friend bool operator==(const SetGripper&, const SetGripper&) = default;
+};
+enum class Axis : std::int32_t { kZ = 0, kJ2 = 1, kJ3 = 2, kWrist = 3 };
+// JG: jog one motor relative: `delta` in steps for Z/J2/J3, in rad for the wrist.
+struct Jog {
+  Axis axis = Axis::kZ;
+  double delta = 0.0;
+
+  friend bool operator==(const Jog&, const Jog&) = default;
+};
+// CF: read (`value` empty) or write a setting (keys in docs/protocol.md section 8).
+struct Config {
+  std::int32_t key = 0;
+  std::optional<std::int32_t> value;
+
+  friend bool operator==(const Config&, const Config&) = default;
+};
+// A real-time byte ('!', '#', '~'), acted on at once by the device, even mid-line.
+enum class Realtime : char { kStop = '!', kHold = '#', kResume = '~' };
+struct RealtimeCommand {
+  Realtime command = Realtime::kStop;
+
+  friend bool operator==(const RealtimeCommand&, const RealtimeCommand&) = default;
+};
+
+// --- physical link (serial): device -> host ------------------------------------------------
+
+// Bits of DeviceState::flags.
+namespace state_flags {
+inline constexpr std::uint32_t kHomed = 1, kMoving = 2, kTrajectory = 4, kHold = 8, kHalted = 16,
+                               kEndstopZ = 32, kEndstopJ2 = 64, kEndstopJ3 = 128;
+}  // namespace state_flags
+
+// ST from the device: the ACTUAL step counters and servo outputs.
+struct DeviceState {
+  std::uint16_t seq = 0;   // wraps at 65536
+  std::uint32_t t_us = 0;  // device clock, micros(), wraps at 2^32
+  MotorSteps steps{};
+  double wrist_rad = 0.0;
+  double grip_rad = 0.0;
+  std::uint32_t flags = 0;      // state_flags
+  std::int32_t queue_free = 0;  // free trajectory slots (flow-control credit)
+
+  friend bool operator==(const DeviceState&, const DeviceState&) = default;
+};
+enum class DeviceEventCode : std::int32_t {
+  kHomed = 1,
+  kEndstop = 2,         // value: axis
+  kTrajectoryDone = 3,  // value: points run
+  kJogButton = 4,       // value: button
+  kUnderrun = 5,        // value: next expected seq
+  kStopped = 6,
+  kHeld = 7,
+  kResumed = 8,
+};
+// EV: unsolicited device event.
+struct DeviceEvent {
+  DeviceEventCode event = DeviceEventCode::kHomed;
+  std::optional<std::int32_t> value;
+
+  friend bool operator==(const DeviceEvent&, const DeviceEvent&) = default;
+};
+
+// --- virtual link (TCP): hub -> simulator --------------------------------------------------
+
+// JD: joint data for the mirror mode. `q`: d1 (m), q2, q3, q4 (rad), DH order.
+struct JointData {
+  std::uint16_t seq = 0;   // the device's ST seq when mirroring
+  std::uint32_t t_us = 0;  // sample time in the hub's clock, wraps at 2^32
+  JointVector q{};
+
+  friend bool operator==(const JointData&, const JointData&) = default;
+};
+// TJ: joint targets for the simulate mode (position actuators). Same fields as JointData.
+struct JointTargets {
+  std::uint16_t seq = 0;
+  std::uint32_t t_us = 0;
+  JointVector q{};
+
+  friend bool operator==(const JointTargets&, const JointTargets&) = default;
+};
+enum class SimMode { kMirror, kSimulate };
+// MD: switch the simulator's mode.
+struct SetMode {
+  SimMode mode = SimMode::kMirror;
+
+  friend bool operator==(const SetMode&, const SetMode&) = default;
+};
+// GR on TCP: grasp (true) or release (false).
+struct Grasp {
+  bool close = false;
+
+  friend bool operator==(const Grasp&, const Grasp&) = default;
+};
+// CS: camera shoot; 0 x 0 means the size in the robot description.
+struct CameraShoot {
+  std::int32_t width_px = 0;
+  std::int32_t height_px = 0;
+
+  friend bool operator==(const CameraShoot&, const CameraShoot&) = default;
+};
+// SC: spawn a cube on the table at (x, y) in the robot base frame, metres.
+struct SpawnCube {
+  CubeColor color = CubeColor::kRed;
+  double x_m = 0.0;
+  double y_m = 0.0;
+
+  friend bool operator==(const SpawnCube&, const SpawnCube&) = default;
+};
+// RS: reset the scene (cubes removed, joints home).
+struct ResetScene {
+  friend bool operator==(const ResetScene&, const ResetScene&) = default;
+};
+// OP request: the poses of all objects, or of one id.
+struct QueryObjects {
+  std::optional<std::int32_t> id;
+
+  friend bool operator==(const QueryObjects&, const QueryObjects&) = default;
+};
+
+// --- virtual link (TCP): simulator -> hub --------------------------------------------------
+
+// JA: the JD/TJ with `seq` was applied at `t_apply_us` (simulator clock, wraps at 2^32).
+struct JointApplied {
+  std::uint16_t seq = 0;
+  std::uint32_t t_apply_us = 0;
+
+  friend bool operator==(const JointApplied&, const JointApplied&) = default;
+};
+// GR reply: gripper closed or open, and the held object id (-1: none).
+struct GripperState {
+  bool closed = false;
+  std::int32_t held_id = -1;
+
+  friend bool operator==(const GripperState&, const GripperState&) = default;
+};
+// IM: a camera image as PNG bytes (at most core::kMaxImageBytes).
+struct Image {
+  std::vector<std::uint8_t> png;
+
+  friend bool operator==(const Image&, const Image&) = default;
+};
+// OP reply: one object's pose in the robot base frame (m, rad).
+struct ObjectPose {
+  std::int32_t id = 0;
+  CubeColor color = CubeColor::kRed;
+  double x_m = 0.0;
+  double y_m = 0.0;
+  double z_m = 0.0;
+  double yaw_rad = 0.0;
+
+  friend bool operator==(const ObjectPose&, const ObjectPose&) = default;
+};
+// ST from the simulator.
+struct SimState {
+  std::uint16_t seq = 0;
+  std::uint32_t t_us = 0;  // simulation time, wraps at 2^32
+  JointVector q{};
+  bool grip_closed = false;
+  std::int32_t held_id = -1;
+  SimMode mode = SimMode::kMirror;
+
+  friend bool operator==(const SimState&, const SimState&) = default;
+};
+// JW: a commanded joint was clamped at its limit. joint 1..4; value in m (joint 1) or rad.
+struct JointWarning {
+  std::int32_t joint = 1;
+  double value = 0.0;
+
+  friend bool operator==(const JointWarning&, const JointWarning&) = default;
+};
+
+// --- what each receiver gets ---------------------------------------------------------------
+
+using SerialToDevice =
+    std::variant<Hello, Ping, SetReportRate, QueryState, Home, TrajectoryBegin, TrajectoryPoint,
+                 SetGripper, Jog, Stop, Config, RealtimeCommand>;
+using SerialFromDevice = std::variant<PeerHello, DeviceState, Ack, ErrorReply, DeviceEvent>;
+using TcpToSim = std::variant<Hello, Ping, JointData, JointTargets, SetMode, Grasp, CameraShoot,
+                              SpawnCube, ResetScene, QueryObjects, QueryState, Stop>;
+using TcpFromSim = std::variant<PeerHello, JointApplied, GripperState, Image, ObjectPose, SimState,
+                                JointWarning, Ack, ErrorReply>;
+
+const char* mode_name(SimMode mode);  // "mirror", "simulate"
+
+}  // namespace scaratwin::protocol

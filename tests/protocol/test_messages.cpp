@@ -1,0 +1,201 @@
+// Typed host layer: golden packets of every code in both framings, round trips, random
+// chunking, SI conversion and value checks.
+#include <gtest/gtest.h>
+
+#include <cstdlib>
+#include <fstream>
+#include <random>
+#include <sstream>
+#include <string>
+
+#include "samples.hpp"
+#include "scaratwin/protocol/codec.hpp"
+
+namespace scaratwin::protocol {
+namespace {
+
+std::string golden_path(const std::string& name) {
+  return std::string(SCARATWIN_PROTOCOL_GOLDEN_DIR) + "/" + name;
+}
+
+std::string read_file(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  std::stringstream ss;
+  ss << in.rdbuf();
+  return ss.str();
+}
+
+template <typename Direction>
+std::string encode_all(const std::vector<Direction>& messages) {
+  std::string out;
+  for (const Direction& m : messages) {
+    const Status s = append(out, m);
+    EXPECT_TRUE(s.ok()) << (s.ok() ? "" : s.error().message);
+  }
+  return out;
+}
+
+template <typename Direction>
+std::vector<Direction> decode_all(std::string_view bytes, std::vector<DecodeError>* errors) {
+  StreamDecoder<Direction> decoder;
+  std::vector<Direction> out;
+  decoder.feed(bytes, [&](Decoded<Direction>&& d) {
+    if (auto* m = std::get_if<0>(&d)) {
+      out.push_back(std::move(*m));
+    } else {
+      errors->push_back(std::get<1>(d));
+    }
+  });
+  return out;
+}
+
+// Every sample encodes to the golden bytes, and the golden bytes decode to the samples.
+template <typename Direction>
+void check_golden(const std::string& name, const std::vector<Direction>& samples) {
+  const std::string encoded = encode_all(samples);
+  if (std::getenv("SCARATWIN_UPDATE_GOLDEN")) {
+    std::ofstream(golden_path(name), std::ios::binary) << encoded;
+  }
+  const std::string golden = read_file(golden_path(name));
+  ASSERT_FALSE(golden.empty()) << "missing " << golden_path(name);
+  EXPECT_EQ(encoded, golden) << name;
+  std::vector<DecodeError> errors;
+  EXPECT_EQ(decode_all<Direction>(golden, &errors), samples) << name;
+  EXPECT_TRUE(errors.empty()) << errors.front().message;
+}
+
+TEST(ProtocolGolden, SerialToDevice) {
+  check_golden("serial_to_device.txt", test::serial_to_device_samples());
+}
+TEST(ProtocolGolden, SerialFromDevice) {
+  check_golden("serial_from_device.txt", test::serial_from_device_samples());
+}
+TEST(ProtocolGolden, TcpToSim) { check_golden("tcp_to_sim.txt", test::tcp_to_sim_samples()); }
+TEST(ProtocolGolden, TcpFromSim) { check_golden("tcp_from_sim.txt", test::tcp_from_sim_samples()); }
+
+TEST(ProtocolEncode, WritesWireUnits) {
+  const auto jd =
+      encode(JointData{17, 5000123, {0.12, deg_to_rad(12.5), deg_to_rad(-30.25), deg_to_rad(90)}},
+             Framing::kTcp);
+  ASSERT_TRUE(jd.ok());
+  EXPECT_EQ(*jd, "JD,17,5000123,120,12.5,-30.25,90,\n");
+  const auto gr = encode(SetGripper{deg_to_rad(75)}, Framing::kSerial);
+  ASSERT_TRUE(gr.ok());
+  EXPECT_EQ(*gr, "GR=7500=\n");
+  const auto tp = encode(TrajectoryPoint{2, 0.5, {20000, 0, 0}, deg_to_rad(45), deg_to_rad(75)},
+                         Framing::kSerial);
+  ASSERT_TRUE(tp.ok());
+  EXPECT_EQ(*tp, "TP=2=500=20000=0=0=4500=7500=\n");
+  EXPECT_EQ(*encode(Stop{}, Framing::kSerial), "SP=\n");
+  EXPECT_EQ(*encode(Stop{}, Framing::kTcp), "SP,\n");
+  EXPECT_EQ(*encode(RealtimeCommand{Realtime::kHold}, Framing::kSerial), "#");
+}
+
+TEST(ProtocolEncode, RefusesValuesTheWireCannotCarry) {
+  const auto nan = encode(JointData{1, 2, {std::nan(""), 0, 0, 0}}, Framing::kTcp);
+  ASSERT_FALSE(nan.ok());
+  EXPECT_EQ(nan.error().code, core::kErrBadValue);
+  EXPECT_NE(nan.error().message.find("q[0]"), std::string::npos) << nan.error().message;
+  const auto huge = encode(SpawnCube{CubeColor::kRed, 1e9, 0}, Framing::kTcp);
+  ASSERT_FALSE(huge.ok());
+  EXPECT_NE(huge.error().message.find("x_m"), std::string::npos) << huge.error().message;
+  const auto text = encode(PeerHello{1, "bad name", "1"}, Framing::kTcp);
+  ASSERT_FALSE(text.ok());
+  EXPECT_EQ(text.error().code, core::kErrBadValue);
+  const auto wrong_link = encode(JointData{}, Framing::kSerial);
+  ASSERT_FALSE(wrong_link.ok());
+  EXPECT_EQ(wrong_link.error().code, core::kErrUnknownCode);
+  Image big;
+  big.png.resize(core::kMaxImageBytes + 1);
+  const auto image = encode(big, Framing::kTcp);
+  ASSERT_FALSE(image.ok());
+  EXPECT_EQ(image.error().code, core::kErrPayloadTooLarge);
+  std::string out = "AK,RS,\n";
+  EXPECT_FALSE(append(out, TcpToSim(JointData{1, 2, {INFINITY, 0, 0, 0}})).ok());
+  EXPECT_EQ(out, "AK,RS,\n");
+}
+
+TEST(ProtocolDecode, ConvertsToSi) {
+  TcpToSimDecoder d;
+  const auto items = d.feed("JD,17,5000123,120,12.5,-30.25,90,\nSC,blue,-0.5,187,\n");
+  ASSERT_EQ(items.size(), 2u);
+  const auto& jd = std::get<JointData>(std::get<0>(items[0]));
+  EXPECT_EQ(jd.seq, 17);
+  EXPECT_EQ(jd.t_us, 5000123u);
+  EXPECT_DOUBLE_EQ(jd.q[0], 0.12);
+  EXPECT_DOUBLE_EQ(jd.q[1], deg_to_rad(12.5));
+  EXPECT_DOUBLE_EQ(jd.q[2], deg_to_rad(-30.25));
+  const auto& sc = std::get<SpawnCube>(std::get<0>(items[1]));
+  EXPECT_EQ(sc.color, CubeColor::kBlue);
+  EXPECT_DOUBLE_EQ(sc.x_m, -0.0005);
+  EXPECT_DOUBLE_EQ(sc.y_m, 0.187);
+
+  SerialFromDeviceDecoder s;
+  const auto st = s.feed("ST=3=99=1=-2=3=4500=-100=5=8=\n");
+  ASSERT_EQ(st.size(), 1u);
+  const auto& state = std::get<DeviceState>(std::get<0>(st[0]));
+  EXPECT_EQ(state.steps, (MotorSteps{1, -2, 3}));
+  EXPECT_DOUBLE_EQ(state.wrist_rad, deg_to_rad(45));
+  EXPECT_DOUBLE_EQ(state.grip_rad, deg_to_rad(-1));
+  EXPECT_EQ(state.flags, 5u);
+  EXPECT_EQ(state.queue_free, 8);
+}
+
+TEST(ProtocolDecode, ImageArrivesWholeWhateverTheChunking) {
+  const std::string png("\x89PNG\r\n\x1a\n\0\nIM,3,\n", 17);
+  const std::string stream = "IM,17,\n" + png + "GR,1,3,\nIM,0,\n";
+  for (std::size_t cut = 0; cut <= stream.size(); ++cut) {
+    TcpFromSimDecoder d;
+    auto items = d.feed(stream.substr(0, cut));
+    auto rest = d.feed(stream.substr(cut));
+    items.insert(items.end(), rest.begin(), rest.end());
+    ASSERT_EQ(items.size(), 3u) << cut;
+    const auto& image = std::get<Image>(std::get<0>(items[0]));
+    EXPECT_EQ(std::string(image.png.begin(), image.png.end()), png);
+    EXPECT_EQ(std::get<GripperState>(std::get<0>(items[1])), (GripperState{true, 3}));
+    EXPECT_TRUE(std::get<Image>(std::get<0>(items[2])).png.empty());
+  }
+}
+
+TEST(ProtocolDecode, RealtimeBytesBecomeCommands) {
+  SerialToDeviceDecoder d;
+  const auto items = d.feed("TB=2!=\n~");
+  ASSERT_EQ(items.size(), 3u);
+  EXPECT_EQ(std::get<RealtimeCommand>(std::get<0>(items[0])).command, Realtime::kStop);
+  EXPECT_EQ(std::get<TrajectoryBegin>(std::get<0>(items[1])).points, 2);
+  EXPECT_EQ(std::get<RealtimeCommand>(std::get<0>(items[2])).command, Realtime::kResume);
+}
+
+// Random messages, encoded back to back and fed in random chunks, decode to themselves.
+template <typename Direction>
+void check_random_chunking(const std::vector<Direction>& samples, unsigned seed) {
+  std::mt19937 rng(seed);
+  const auto messages = test::random_stream(samples, rng, 400);
+  const std::string bytes = encode_all(messages);
+  for (int run = 0; run < 20; ++run) {
+    StreamDecoder<Direction> d;
+    std::vector<Direction> got;
+    std::uniform_int_distribution<std::size_t> chunk(1, 1 + static_cast<std::size_t>(run) * 13);
+    for (std::size_t at = 0; at < bytes.size();) {
+      const std::size_t n = std::min(chunk(rng), bytes.size() - at);
+      d.feed(std::string_view(bytes).substr(at, n), [&](Decoded<Direction>&& item) {
+        ASSERT_EQ(item.index(), 0u) << std::get<1>(item).message;
+        got.push_back(std::move(std::get<0>(item)));
+      });
+      at += n;
+    }
+    ASSERT_EQ(got, messages) << "run " << run;
+  }
+}
+
+TEST(ProtocolChunking, SerialToDevice) {
+  check_random_chunking(test::serial_to_device_samples(), 11);
+}
+TEST(ProtocolChunking, SerialFromDevice) {
+  check_random_chunking(test::serial_from_device_samples(), 12);
+}
+TEST(ProtocolChunking, TcpToSim) { check_random_chunking(test::tcp_to_sim_samples(), 13); }
+TEST(ProtocolChunking, TcpFromSim) { check_random_chunking(test::tcp_from_sim_samples(), 14); }
+
+}  // namespace
+}  // namespace scaratwin::protocol
