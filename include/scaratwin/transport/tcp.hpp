@@ -1,0 +1,62 @@
+// TCP links: the virtual link between the hub (client) and the simulator (server). Packets
+// are text lines ("ID,v1,v2,...,\n"); camera images come as "IM,<nbytes>,\n" followed by the
+// raw PNG bytes, which the splitter hands through intact (RxPacket::payload). Sockets use
+// TCP_NODELAY and keepalive. The client reconnects on its own after a loss, with a delay
+// that doubles from reconnect_min up to reconnect_max; the server keeps accepting, and a new
+// peer replaces the current one (so a restarted hub is served at once, not refused).
+#pragma once
+
+#include <cstdint>
+#include <memory>
+#include <string>
+
+#include "scaratwin/transport/link.hpp"
+
+namespace scaratwin::transport {
+
+inline constexpr const char* kDefaultTcpHost = "127.0.0.1";
+inline constexpr std::uint16_t kDefaultTcpPort = 55016;
+
+// Link options for the TCP framing: lines up to 512 bytes, "IM," binary payloads.
+LinkOptions tcp_link_defaults();
+
+struct TcpClientOptions {
+  std::string host = kDefaultTcpHost;  // IP address or host name
+  std::uint16_t port = kDefaultTcpPort;
+  Duration connect_timeout{1000};  // one connection attempt
+  LinkOptions link = tcp_link_defaults();
+};
+
+class TcpClient : public Link {
+ public:
+  // Starts connecting at once (in the background); see wait_connected(). Fails only on
+  // options that cannot work (empty host, port 0, zero timeouts).
+  static Result<std::unique_ptr<TcpClient>> create(TcpClientOptions options,
+                                                   std::shared_ptr<IoThread> io = nullptr);
+
+ private:
+  using Link::Link;
+};
+
+struct TcpServerOptions {
+  std::string bind_address = kDefaultTcpHost;  // "0.0.0.0" to listen on every interface
+  std::uint16_t port = kDefaultTcpPort;        // 0: an ephemeral port (see TcpServer::port())
+  LinkOptions link = tcp_link_defaults();
+};
+
+class TcpServer : public Link {
+ public:
+  // Binds and listens before returning (kOpenFailed names the address if that fails), then
+  // accepts peers in the background; connected() is true while a peer is attached.
+  static Result<std::unique_ptr<TcpServer>> create(TcpServerOptions options,
+                                                   std::shared_ptr<IoThread> io = nullptr);
+  // The port actually listened on.
+  std::uint16_t port() const { return port_; }
+
+ private:
+  TcpServer(std::shared_ptr<detail::LinkImpl> impl, std::uint16_t port)
+      : Link(std::move(impl)), port_(port) {}
+  std::uint16_t port_;
+};
+
+}  // namespace scaratwin::transport
