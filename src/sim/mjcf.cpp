@@ -55,6 +55,16 @@ Vec3 rpy_xz(double alpha, double theta) {
 
 }  // namespace
 
+CameraAxes camera_axes(const CameraModel& cam) {
+  const Vec3 f = unit(sub(cam.look_at_m, cam.pos_m));
+  const Vec3 up_hint = std::abs(f[2]) > 0.999 ? Vec3{1, 0, 0} : Vec3{0, 0, 1};
+  CameraAxes a;
+  a.x = unit(cross(f, up_hint));
+  a.y = cross(a.x, f);
+  a.z = {-f[0], -f[1], -f[2]};
+  return a;
+}
+
 std::string cube_body_name(CubeColor color, int index) {
   return fmt::format("cube_{}_{}", color_name(color), index);
 }
@@ -112,17 +122,19 @@ Result<std::string> make_mjcf(const RobotModel& model, const MjcfOptions& o) {
       "  <visual>\n    <global offwidth=\"{}\" offheight=\"{}\"/>\n"
       "    <quality shadowsize=\"2048\" offsamples=\"0\"/>\n"
       "    <map znear=\"0.02\" zfar=\"20\"/>\n"
-      "    <headlight ambient=\"0.35 0.35 0.35\" diffuse=\"0.5 0.5 0.5\"/>\n  </visual>\n",
+      "    <headlight ambient=\"0.3 0.3 0.3\" diffuse=\"0.3 0.3 0.3\" specular=\"0 0 0\"/>\n"
+      "  </visual>\n"
+      "  <asset><material name=\"matte\" specular=\"0.1\" shininess=\"0.1\"/></asset>\n",
       off_w, off_h);
   x += "  <default>\n"
-       "    <geom contype=\"0\" conaffinity=\"0\" rgba=\"0.82 0.82 0.85 1\"/>\n"
+       "    <geom contype=\"0\" conaffinity=\"0\" material=\"matte\" rgba=\"0.82 0.82 0.85 1\"/>\n"
        "    <default class=\"solid\"><geom contype=\"1\" conaffinity=\"1\" condim=\"3\" "
        "friction=\"0.8 0.005 0.0001\"/></default>\n"
        "  </default>\n";
 
   x += "  <worldbody>\n";
   x += "    <light name=\"sun\" pos=\"0.1 0 1.2\" dir=\"0 0 -1\" directional=\"true\" "
-       "diffuse=\"0.6 0.6 0.6\" castshadow=\"false\"/>\n";
+       "diffuse=\"0.45 0.45 0.45\" specular=\"0.1 0.1 0.1\" castshadow=\"true\"/>\n";
   // table: covers the workspace and the trays
   const double table_half_t = 0.01;
   x += fmt::format(
@@ -162,10 +174,9 @@ Result<std::string> make_mjcf(const RobotModel& model, const MjcfOptions& o) {
   }
   // overhead camera: looks along -z of its frame, x to the right of the image, y up
   {
-    const Vec3 f = unit(forward);
-    const Vec3 up_hint = std::abs(f[2]) > 0.999 ? Vec3{1, 0, 0} : Vec3{0, 0, 1};
-    const Vec3 cx = unit(cross(f, up_hint));
-    const Vec3 cy = cross(cx, f);
+    const CameraAxes axes = camera_axes(cam);
+    const Vec3& cx = axes.x;
+    const Vec3& cy = axes.y;
     x += fmt::format(
         "    <camera name=\"{}\" mode=\"fixed\" pos=\"{}\" xyaxes=\"{} {}\" fovy=\"{}\"/>\n",
         kCameraName, vec(cam.pos_m[0], cam.pos_m[1], cam.pos_m[2]), vec(cx[0], cx[1], cx[2]),

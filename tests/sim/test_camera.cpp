@@ -1,0 +1,111 @@
+// The overhead camera: headless EGL rendering, PNG round trip, and each cube's colour where
+// the camera model projects its centre.
+#include <cmath>
+#include <filesystem>
+
+#include <gtest/gtest.h>
+
+#include "scaratwin/config/robot_config.hpp"
+#include "scaratwin/core/units.hpp"
+#include "scaratwin/sim/camera.hpp"
+#include "scaratwin/sim/simulation.hpp"
+
+namespace scaratwin::sim {
+namespace {
+
+struct Rgb {
+  int r, g, b;
+};
+
+Rgb pixel(const Image& img, double u, double v) {
+  const int x = static_cast<int>(u), y = static_cast<int>(v);
+  const std::uint8_t* p = img.rgb.data() + (static_cast<std::size_t>(y) * img.width_px + x) * 3;
+  return {p[0], p[1], p[2]};
+}
+
+// The dominant channel of a clearly coloured pixel, or -1 for a greyish one.
+int dominant(Rgb c) {
+  const int v[3] = {c.r, c.g, c.b};
+  const int i = static_cast<int>(std::max_element(v, v + 3) - v);
+  for (int k = 0; k < 3; ++k) {
+    if (k != i && v[i] < 2 * v[k] + 10) return -1;
+  }
+  return i;
+}
+
+class SimCamera : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    auto m = load_robot_config(SCARATWIN_CONFIG_FILE);
+    ASSERT_TRUE(m.ok());
+    robot_ = *m;
+    SimOptions o;
+    o.mjcf.offscreen_width_px = 800;
+    o.mjcf.offscreen_height_px = 600;
+    auto s = Simulation::create(robot_, o);
+    ASSERT_TRUE(s.ok()) << s.error().message;
+    sim_ = std::move(*s);
+    auto c = Camera::create(*sim_);
+    ASSERT_TRUE(c.ok()) << c.error().message;
+    camera_ = std::move(*c);
+    // the arm raised and turned aside so that it hides no cube
+    ASSERT_TRUE(sim_->set_joints({0.12, deg_to_rad(115.0), 0.0, 0.0}).ok());
+  }
+
+  RobotModel robot_;
+  std::unique_ptr<Simulation> sim_;
+  std::unique_ptr<Camera> camera_;
+};
+
+TEST_F(SimCamera, PngDecodesWithTheConfiguredSizeAndCubesWhereProjected) {
+  const double spots[kNumColors][2] = {{0.24, 0.1}, {0.15, 0.03}, {0.06, -0.06}};
+  std::vector<CubeState> cubes;
+  for (int c = 0; c < kNumColors; ++c) {
+    auto cube = sim_->spawn_cube(CubeColor(c), spots[c][0], spots[c][1], 0.4 * c);
+    ASSERT_TRUE(cube.ok()) << cube.error().message;
+  }
+  ASSERT_TRUE(sim_->step(250).ok());
+  const CameraModel& cm = robot_.scene.camera;
+  for (auto [w, h] : {std::pair{cm.width_px, cm.height_px}, std::pair{320, 200}}) {
+    auto img = camera_->render(*sim_, w, h);
+    ASSERT_TRUE(img.ok()) << img.error().message;
+    auto png = encode_png(*img);
+    ASSERT_TRUE(png.ok()) << png.error().message;
+    ASSERT_GT(png->size(), 8u);
+    EXPECT_EQ((*png)[1], 'P');
+    auto decoded = decode_png(*png);
+    ASSERT_TRUE(decoded.ok()) << decoded.error().message;
+    EXPECT_EQ(decoded->width_px, w);
+    EXPECT_EQ(decoded->height_px, h);
+    EXPECT_EQ(decoded->rgb, img->rgb);  // lossless
+    for (const CubeState& c : sim_->cubes()) {
+      const PixelPoint p = project(cm, w, h, c.pos_m);
+      ASSERT_TRUE(p.visible) << color_name(c.color);
+      const Rgb px = pixel(*decoded, p.u_px, p.v_px);
+      EXPECT_EQ(dominant(px), static_cast<int>(c.color))
+          << color_name(c.color) << " cube at (" << p.u_px << ", " << p.v_px << ") px in " << w
+          << "x" << h << " looks " << px.r << "," << px.g << "," << px.b;
+    }
+    // and the bare table between them is not mistaken for a cube
+    const PixelPoint t = project(cm, w, h, {0.2, 0.2, robot_.scene.table_z_m});
+    ASSERT_TRUE(t.visible);
+    EXPECT_EQ(dominant(pixel(*decoded, t.u_px, t.v_px)), -1);
+  }
+}
+
+TEST_F(SimCamera, RejectsSizesBeyondTheBufferAndSavesFiles) {
+  auto too_big = camera_->render(*sim_, 801, 600);
+  ASSERT_FALSE(too_big.ok());
+  EXPECT_NE(too_big.error().message.find("801x600"), std::string::npos);
+  EXPECT_FALSE(camera_->render(*sim_, 0, 10).ok());
+  auto img = camera_->render(*sim_, 64, 48);
+  ASSERT_TRUE(img.ok());
+  const auto path = std::filesystem::temp_directory_path() / "scaratwin_test_camera.png";
+  ASSERT_TRUE(save_png(*img, path.string()).ok());
+  EXPECT_GT(std::filesystem::file_size(path), 8u);
+  std::filesystem::remove(path);
+  EXPECT_FALSE(decode_png(std::vector<std::uint8_t>{1, 2, 3}).ok());
+}
+
+}  // namespace
+}  // namespace scaratwin::sim
