@@ -25,6 +25,7 @@ using Runner = std::function<int()>;
 // Registers fk and ik; `run` receives the runner of the chosen subcommand.
 void add_kinematics_commands(CLI::App& app, CommonOptions& common, Runner& run);
 void add_plan_command(CLI::App& app, CommonOptions& common, Runner& run);
+void add_report_commands(CLI::App& app, CommonOptions& common, Runner& run);
 void add_model_command(CLI::App& app, CommonOptions& common, Runner& run);
 
 }  // namespace scaratwin::cli
