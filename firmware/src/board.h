@@ -33,8 +33,9 @@
 #define PIN_LOW(...) (PIN_PORT(__VA_ARGS__) &= (uint8_t)~PIN_MASK(__VA_ARGS__))
 #define PIN_READ(...) ((PIN_PINR(__VA_ARGS__) & PIN_MASK(__VA_ARGS__)) != 0)
 #define PIN_OUTPUT(...) (PIN_DDR(__VA_ARGS__) |= PIN_MASK(__VA_ARGS__))
-#define PIN_INPUT_PULLUP(...) \
-  (PIN_DDR(__VA_ARGS__) &= (uint8_t)~PIN_MASK(__VA_ARGS__), PIN_PORT(__VA_ARGS__) |= PIN_MASK(__VA_ARGS__))
+#define PIN_INPUT_PULLUP(...)                               \
+  (PIN_DDR(__VA_ARGS__) &= (uint8_t)~PIN_MASK(__VA_ARGS__), \
+   PIN_PORT(__VA_ARGS__) |= PIN_MASK(__VA_ARGS__))
 
 #if defined(__AVR_ATmega328P__)
 #define FW_BOARD_NAME "scara-uno"

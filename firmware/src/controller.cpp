@@ -37,8 +37,13 @@ enum Event : uint8_t {
 };
 
 // ST flag bits (the endstop bits 32/64/128 are added by report.cpp)
-enum Flag : uint8_t { kFlagHomed = 1, kFlagMoving = 2, kFlagTrajectory = 4, kFlagHold = 8,
-                      kFlagHalted = 16 };
+enum Flag : uint8_t {
+  kFlagHomed = 1,
+  kFlagMoving = 2,
+  kFlagTrajectory = 4,
+  kFlagHold = 8,
+  kFlagHalted = 16
+};
 
 constexpr uint8_t kReplyRoom = 72;  // transmit space needed before a line is taken in
 
@@ -356,6 +361,7 @@ void handle_stepper_events() {
     for (uint8_t i = 0; i < kNumAxes; ++i)
       if (hit & (1u << i)) send_ev(kEvEndstopHit, true, i);
   }
+  if (ev & (kEvStopped | kEvEndstop)) stepper_release();
   // a trajectory whose queue ran dry before its last point holds there (EV 5 once)
   if (g_traj.active && !stepper_active() && g_traj.next_seq < g_traj.n &&
       g_traj.done == g_traj.next_seq && g_traj.done > 0 && !g_traj.underrun_sent) {
@@ -399,8 +405,8 @@ void controller_init() {
   serial_init(115200, controller_realtime);
   stepper_init();
   buttons_init();
-  servo_init(g_settings.servo_min_us, g_settings.servo_max_us,
-             (int16_t)g_settings.grip_open_cdeg, 0);
+  servo_init(g_settings.servo_min_us, g_settings.servo_max_us, (int16_t)g_settings.grip_open_cdeg,
+             0);
   g_traj.active = false;
   stepper_set_run(true);
   sei();

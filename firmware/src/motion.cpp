@@ -18,8 +18,8 @@ uint16_t hold_decrement_q16(uint16_t max_abs_delta, uint16_t dt_ms, uint16_t acc
   return (uint16_t)dec;
 }
 
-PlanError plan_point(const MotorLimits& limits, PlanState& state, const TimedPoint& p,
-                     Segment& out, uint8_t* axis) {
+PlanError plan_point(const MotorLimits& limits, PlanState& state, const TimedPoint& p, Segment& out,
+                     uint8_t* axis) {
   if (p.dt_ms == 0 || p.dt_ms > kMaxPointMs) {
     *axis = 0;
     return kPlanBadDuration;
@@ -68,7 +68,8 @@ PlanError plan_point(const MotorLimits& limits, PlanState& state, const TimedPoi
   out.wrist_cdeg = p.wrist_cdeg;
   out.grip_cdeg = p.grip_cdeg < 0 ? 0 : p.grip_cdeg;
   out.seq = p.seq;
-  out.flags = (uint8_t)(kSegTrajectory | (p.last ? kSegLast : 0) | (p.grip_cdeg >= 0 ? kSegGrip : 0));
+  out.flags =
+      (uint8_t)(kSegTrajectory | (p.last ? kSegLast : 0) | (p.grip_cdeg >= 0 ? kSegGrip : 0));
   return kPlanOk;
 }
 

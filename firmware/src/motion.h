@@ -26,12 +26,15 @@ class MotionQueue {
     uint8_t next = (uint8_t)((head_ + 1) & (kQueueSize - 1));
     if (next == tail_) return false;
     buf_[head_] = s;
+    // the segment must be complete before the consumer can see it
+    __asm__ __volatile__("" ::: "memory");
     head_ = next;
     return true;
   }
   // Consumer side: the oldest segment, or nullptr.
   const Segment* front() const { return head_ == tail_ ? nullptr : &buf_[tail_]; }
   void pop() {
+    __asm__ __volatile__("" ::: "memory");
     if (head_ != tail_) tail_ = (uint8_t)((tail_ + 1) & (kQueueSize - 1));
   }
   // Consumer side (the step interrupt, on a stop): drops everything queued.
@@ -75,8 +78,8 @@ enum PlanError : uint8_t {
 
 // Checks `p` against the limits from `state`; on success fills `out`, advances `state` and
 // returns kPlanOk; otherwise returns the error and sets *axis to the offending axis.
-PlanError plan_point(const MotorLimits& limits, PlanState& state, const TimedPoint& p,
-                     Segment& out, uint8_t* axis);
+PlanError plan_point(const MotorLimits& limits, PlanState& state, const TimedPoint& p, Segment& out,
+                     uint8_t* axis);
 
 // Speed-scale decrement per tick (Q16) that brings a segment of `max_abs_delta` steps in
 // `dt_ms` to rest at `accel` steps/s^2.

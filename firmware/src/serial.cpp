@@ -39,7 +39,7 @@ ISR(USART_RX_vect_NAME) {
 
 ISR(USART_UDRE_vect_NAME) {
   if (g_tx_head == g_tx_tail) {
-    UCSR0B &= (uint8_t)~(1 << UDRIE0);
+    UCSR0B &= (uint8_t) ~(1 << UDRIE0);
     return;
   }
   UDR0 = g_tx[g_tx_tail];
@@ -76,9 +76,7 @@ bool serial_take_overrun() {
   return o;
 }
 
-uint8_t serial_tx_free() {
-  return (uint8_t)((g_tx_tail - g_tx_head - 1) & (kTxSize - 1));
-}
+uint8_t serial_tx_free() { return (uint8_t)((g_tx_tail - g_tx_head - 1) & (kTxSize - 1)); }
 
 bool serial_write(const char* data, uint8_t n) {
   if (n > serial_tx_free()) return false;

@@ -26,11 +26,11 @@ uint16_t g_frame_pulse[2] = {3000, 3000};
 
 ISR(TIMER1_COMPA_vect) {
   switch (g_phase) {
-    case 0:  // frame start: gripper pulse
+    case 0:  // frame start: gripper pulse (the edge first, the bookkeeping after)
+      PIN_HIGH(PIN_SERVO_GRIP);
       g_frame_start = OCR1A;
       g_frame_pulse[0] = g_pulse[0];
       g_frame_pulse[1] = g_pulse[1];
-      PIN_HIGH(PIN_SERVO_GRIP);
       OCR1A = (uint16_t)(g_frame_start + g_frame_pulse[0]);
       g_phase = 1;
       break;

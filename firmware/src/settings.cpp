@@ -29,7 +29,7 @@ void settings_defaults(Settings& s) {
 uint16_t settings_checksum(const Settings& s) {
   const uint8_t* p = (const uint8_t*)&s;
   uint16_t a = 0, b = 0;
-  for (uint16_t i = 0; i < (uint16_t)__builtin_offsetof(Settings, checksum); ++i) {
+  for (uint16_t i = 0; i < (uint16_t) __builtin_offsetof(Settings, checksum); ++i) {
     a = (uint16_t)((a + p[i]) % 255);
     b = (uint16_t)((b + a) % 255);
   }

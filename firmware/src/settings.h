@@ -15,22 +15,22 @@ constexpr uint8_t kSettingsVersion = 1;
 
 struct Settings {
   uint8_t version;
-  uint16_t max_speed;     // steps/s, every stepper          (CF key 1)
-  uint16_t max_accel;     // steps/s^2, every stepper        (CF key 2)
-  uint16_t report_hz;     // default ST rate at reset, 0 off (CF key 3)
-  uint16_t grip_open_cdeg;    //                             (CF key 4)
-  uint16_t grip_closed_cdeg;  //                             (CF key 5)
-  uint16_t homing_speed;  // steps/s while seeking a switch  (CF key 6)
-  uint16_t jog_speed;     // steps/s for JG and the buttons  (CF key 7)
-  uint16_t servo_speed;   // cdeg/s, wrist and gripper       (CF key 8)
+  uint16_t max_speed;          // steps/s, every stepper          (CF key 1)
+  uint16_t max_accel;          // steps/s^2, every stepper        (CF key 2)
+  uint16_t report_hz;          // default ST rate at reset, 0 off (CF key 3)
+  uint16_t grip_open_cdeg;     //                             (CF key 4)
+  uint16_t grip_closed_cdeg;   //                             (CF key 5)
+  uint16_t homing_speed;       // steps/s while seeking a switch  (CF key 6)
+  uint16_t jog_speed;          // steps/s for JG and the buttons  (CF key 7)
+  uint16_t servo_speed;        // cdeg/s, wrist and gripper       (CF key 8)
   uint16_t coupling_permille;  // J3 motor steps per 1000 J2 steps (CF key 9)
-  uint16_t servo_min_us;  // pulse at 0 deg
-  uint16_t servo_max_us;  // pulse at 180 deg
-  uint16_t pulloff;       // steps backed off a switch after it closed
-  int32_t endstop[kNumAxes];  // count taken when the switch closes (J3: joint count)
+  uint16_t servo_min_us;       // pulse at 0 deg
+  uint16_t servo_max_us;       // pulse at 180 deg
+  uint16_t pulloff;            // steps backed off a switch after it closed
+  int32_t endstop[kNumAxes];   // count taken when the switch closes (J3: joint count)
   int8_t homing_dir[kNumAxes];
-  int32_t home[kNumAxes];     // counts moved to after homing
-  uint16_t checksum;          // Fletcher-16 of every byte before it
+  int32_t home[kNumAxes];  // counts moved to after homing
+  uint16_t checksum;       // Fletcher-16 of every byte before it
 };
 
 enum SettingError : uint8_t { kSettingOk = 0, kSettingUnknownKey, kSettingBadValue };

@@ -13,6 +13,7 @@ Dda g_dda;
 volatile bool g_active = false;  // g_dda holds a segment being executed
 volatile bool g_run = false;
 volatile bool g_stop_req = false;
+volatile bool g_blocked = false;  // after a stop, until the main loop released the queue
 volatile bool g_hold_req = false;
 volatile bool g_held = false;
 volatile uint32_t g_scale_q16 = 65536;  // speed scale of the segment clock (1.0 = 65536)
@@ -42,14 +43,23 @@ inline uint8_t read_endstops() {
 
 inline void set_dirs(uint8_t negative) {
   // DIR high = towards positive counts
-  if (negative & 1) PIN_LOW(PIN_DIR_Z); else PIN_HIGH(PIN_DIR_Z);
-  if (negative & 2) PIN_LOW(PIN_DIR_J2); else PIN_HIGH(PIN_DIR_J2);
-  if (negative & 4) PIN_LOW(PIN_DIR_J3); else PIN_HIGH(PIN_DIR_J3);
+  if (negative & 1)
+    PIN_LOW(PIN_DIR_Z);
+  else
+    PIN_HIGH(PIN_DIR_Z);
+  if (negative & 2)
+    PIN_LOW(PIN_DIR_J2);
+  else
+    PIN_HIGH(PIN_DIR_J2);
+  if (negative & 4)
+    PIN_LOW(PIN_DIR_J3);
+  else
+    PIN_HIGH(PIN_DIR_J3);
 }
 
 // Loads the next queued segment; false if none may start.
 inline bool load_next() {
-  if (!g_run || g_hold_req) return false;
+  if (!g_run || g_hold_req || g_blocked) return false;
   const Segment* s = g_queue.front();
   if (s == nullptr) return false;
   g_dda.start(*s);
@@ -69,15 +79,27 @@ inline bool load_next() {
 
 inline void halt_all() {
   g_active = false;
+  g_blocked = true;
   g_queue.clear();
   g_scale_q16 = 65536;
 }
 
 }  // namespace
 
-// Interruptible so that the servo pulses and the serial port keep their timing; it finishes
-// well within one tick, so it never nests with itself.
-ISR(TIMER2_COMPA_vect, ISR_NOBLOCK) {
+static void tick();
+
+// Interruptible so that the servo pulses and the serial port keep their timing, but never by
+// itself: its own interrupt is masked while it runs (a tick that comes due meanwhile runs
+// right after, late rather than lost, and never on top of a half-updated segment).
+ISR(TIMER2_COMPA_vect) {
+  TIMSK2 = 0;
+  sei();
+  tick();
+  cli();
+  TIMSK2 = (1 << OCIE2A);
+}
+
+static void tick() {
   PIN_LOW(PIN_STEP_Z);
   PIN_LOW(PIN_STEP_J2);
   PIN_LOW(PIN_STEP_J3);
@@ -202,6 +224,14 @@ void stepper_request_resume() {
   cli();
   g_hold_req = false;
   g_held = false;
+  SREG = sreg;
+}
+
+void stepper_release() {
+  uint8_t sreg = SREG;
+  cli();
+  g_queue.clear();  // whatever was queued between the stop and now
+  g_blocked = false;
   SREG = sreg;
 }
 

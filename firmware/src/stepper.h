@@ -19,12 +19,12 @@ namespace fw {
 
 // Event bits collected by the interrupt, taken by the main loop.
 enum StepperEvent : uint8_t {
-  kEvStopped = 1,      // a stop request took effect
-  kEvEndstop = 2,      // a guarded endstop closed (motion stopped)
-  kEvPointDone = 4,    // a trajectory point was reached
-  kEvLastDone = 8,     // the last point of a trajectory was reached
-  kEvHeld = 16,        // a hold reached rest
-  kEvGrip = 32,        // a point asked for a gripper angle
+  kEvStopped = 1,    // a stop request took effect
+  kEvEndstop = 2,    // a guarded endstop closed (motion stopped)
+  kEvPointDone = 4,  // a trajectory point was reached
+  kEvLastDone = 8,   // the last point of a trajectory was reached
+  kEvHeld = 16,      // a hold reached rest
+  kEvGrip = 32,      // a point asked for a gripper angle
 };
 
 void stepper_init();
@@ -41,9 +41,13 @@ void stepper_request_stop();  // safe from any interrupt
 void stepper_request_hold();
 void stepper_request_resume();
 
-bool stepper_active();  // executing a segment, or segments queued and allowed to run
-bool stepper_held();    // a hold reached rest
-bool stepper_holding(); // a hold was requested and not resumed
+// After kEvStopped or kEvEndstop the generator starts nothing until the main loop has reset
+// whatever feeds the queue and calls this; it also drops what was queued meanwhile.
+void stepper_release();
+
+bool stepper_active();   // executing a segment, or segments queued and allowed to run
+bool stepper_held();     // a hold reached rest
+bool stepper_holding();  // a hold was requested and not resumed
 // Takes (and clears) the event bits; *endstops gets the switches that stopped the motion,
 // *done_seq the last point reached, *grip_cdeg the last gripper request.
 uint8_t stepper_take_events(uint8_t* endstops, uint16_t* done_seq, int16_t* grip_cdeg);

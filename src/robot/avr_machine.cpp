@@ -1,0 +1,143 @@
+// SPDX-License-Identifier: GPL-3.0-or-later (scaratwin-robot emulator, see avr_machine.hpp)
+#include "avr_machine.hpp"
+
+#include <cstdarg>
+#include <cstdio>
+#include <cstdlib>
+#include <cstring>
+
+extern "C" {
+#include <simavr/avr_extint.h>
+#include <simavr/avr_ioport.h>
+#include <simavr/avr_uart.h>
+#include <simavr/sim_avr.h>
+#include <simavr/sim_elf.h>
+#include <simavr/sim_io.h>
+#include <simavr/sim_irq.h>
+}
+
+namespace scaratwin::robot {
+namespace {
+
+// simavr's messages go to stderr (stdout carries the pty path); only errors are shown
+void log_to_stderr(avr_t*, const int level, const char* format, va_list ap) {
+  if (level <= LOG_ERROR) std::vfprintf(stderr, format, ap);
+}
+
+// simavr calls this while the firmware sleeps; the run loop paces the emulation itself
+void no_sleep(avr_t*, avr_cycle_count_t) {}
+
+void fix_simavr_defaults(avr_t* avr) {
+  for (int i = 0; i < 2; ++i) avr_extint_set_strict_lvl_trig(avr, static_cast<uint8_t>(i), 0);
+  std::uint32_t flags = 0;
+  avr_ioctl(avr, AVR_IOCTL_UART_GET_FLAGS('0'), &flags);
+  flags &= ~(AVR_UART_FLAG_STDIO | AVR_UART_FLAG_POLL_SLEEP);
+  avr_ioctl(avr, AVR_IOCTL_UART_SET_FLAGS('0'), &flags);
+}
+
+}  // namespace
+
+Result<std::unique_ptr<AvrMachine>> AvrMachine::load(const std::string& elf_path,
+                                                     const std::string& mcu,
+                                                     std::uint32_t frequency_hz) {
+  avr_global_logger_set(log_to_stderr);
+  std::unique_ptr<AvrMachine> m(new AvrMachine());
+  m->fw_ = static_cast<elf_firmware_t*>(std::calloc(1, sizeof(elf_firmware_t)));
+  elf_firmware_t& fw = *m->fw_;
+  if (elf_read_firmware(elf_path.c_str(), &fw) != 0) {
+    return Error{1, "cannot read firmware ELF '" + elf_path +
+                        "': build it (target firmware_uno) or pass --firmware PATH"};
+  }
+  avr_t* avr = avr_make_mcu_by_name(mcu.c_str());
+  if (avr == nullptr) return Error{1, "simavr does not know the MCU '" + mcu + "'"};
+  avr_init(avr);
+  std::snprintf(fw.mmcu, sizeof fw.mmcu, "%s", mcu.c_str());
+  fw.frequency = frequency_hz;
+  avr->frequency = frequency_hz;
+  avr_load_firmware(avr, &fw);
+  avr->sleep = no_sleep;
+  fix_simavr_defaults(avr);
+
+  m->avr_ = avr;
+  m->frequency_ = frequency_hz;
+  m->uart_in_ = avr_io_getirq(avr, AVR_IOCTL_UART_GETIRQ('0'), UART_IRQ_INPUT);
+  avr_irq_register_notify(avr_io_getirq(avr, AVR_IOCTL_UART_GETIRQ('0'), UART_IRQ_OUTPUT),
+                          &AvrMachine::uart_out_hook, m.get());
+  avr_irq_register_notify(avr_io_getirq(avr, AVR_IOCTL_UART_GETIRQ('0'), UART_IRQ_OUT_XON),
+                          &AvrMachine::xon_hook, m.get());
+  avr_irq_register_notify(avr_io_getirq(avr, AVR_IOCTL_UART_GETIRQ('0'), UART_IRQ_OUT_XOFF),
+                          &AvrMachine::xoff_hook, m.get());
+  return m;
+}
+
+AvrMachine::~AvrMachine() {
+  if (avr_ != nullptr) {
+    avr_terminate(avr_);
+    std::free(avr_);
+  }
+  if (fw_ != nullptr) {
+    std::free(fw_->flash);
+    std::free(fw_->eeprom);
+    std::free(fw_->fuse);
+    std::free(fw_->lockbits);
+    for (std::uint32_t i = 0; i < fw_->symbolcount; ++i) std::free(fw_->symbol[i]);
+    std::free(fw_->symbol);
+    std::free(fw_);
+  }
+}
+
+void AvrMachine::pin_hook(avr_irq_t*, std::uint32_t value, void* param) {
+  (*static_cast<PinCallback*>(param))(value != 0);
+}
+
+void AvrMachine::uart_out_hook(avr_irq_t*, std::uint32_t value, void* param) {
+  auto* self = static_cast<AvrMachine*>(param);
+  if (self->uart_out_) self->uart_out_(static_cast<std::uint8_t>(value));
+}
+
+void AvrMachine::xon_hook(avr_irq_t*, std::uint32_t, void* param) {
+  auto* self = static_cast<AvrMachine*>(param);
+  self->xoff_ = false;
+  self->feed_uart();
+}
+
+void AvrMachine::xoff_hook(avr_irq_t*, std::uint32_t, void* param) {
+  static_cast<AvrMachine*>(param)->xoff_ = true;
+}
+
+void AvrMachine::watch_pin(char port, int bit, PinCallback cb) {
+  pin_callbacks_.push_back(std::make_unique<PinCallback>(std::move(cb)));
+  avr_irq_t* irq = avr_io_getirq(avr_, AVR_IOCTL_IOPORT_GETIRQ(port), bit);
+  avr_irq_register_notify(irq, &AvrMachine::pin_hook, pin_callbacks_.back().get());
+}
+
+void AvrMachine::drive_pin(char port, int bit, bool level) {
+  avr_raise_irq(avr_io_getirq(avr_, AVR_IOCTL_IOPORT_GETIRQ(port), bit), level ? 1 : 0);
+}
+
+void AvrMachine::on_uart_output(ByteCallback cb) { uart_out_ = std::move(cb); }
+
+void AvrMachine::uart_send(std::uint8_t byte) {
+  to_avr_.push_back(byte);
+  feed_uart();
+}
+
+void AvrMachine::feed_uart() {
+  while (!xoff_ && !to_avr_.empty()) {
+    const std::uint8_t b = to_avr_.front();
+    to_avr_.pop_front();
+    avr_raise_irq(uart_in_, b);
+  }
+}
+
+bool AvrMachine::run_until(std::uint64_t cycle) {
+  while (avr_->cycle < cycle) {
+    const int state = avr_run(avr_);
+    if (state == cpu_Done || state == cpu_Crashed) return false;
+  }
+  return true;
+}
+
+std::uint64_t AvrMachine::cycle() const { return avr_->cycle; }
+
+}  // namespace scaratwin::robot

@@ -1,0 +1,77 @@
+// scaratwin-robot: the AVR microcontroller, emulated by libsimavr. Loads the firmware ELF,
+// exposes pin changes and pin inputs as callbacks, and connects UART0 to a byte queue with
+// simavr's XON/XOFF back-pressure, so bytes enter the firmware at the baud rate it configured.
+// simavr 1.6 pitfalls handled here: INT0/INT1 strict level triggering is turned off (it slows
+// the run fivefold), the UART's stdio and poll-sleep flags are cleared, and simavr's own sleep
+// callback is replaced: the caller paces the run (simavr only syncs to the wall clock while the
+// firmware sleeps, and then by calling usleep).
+//
+// SPDX-License-Identifier: GPL-3.0-or-later
+// Part of the scaratwin-robot emulator, which links libsimavr (GPL-3.0) and is therefore
+// distributed under the GNU General Public License, version 3 or later.
+#pragma once
+
+#include <cstdint>
+#include <deque>
+#include <functional>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "scaratwin/core/result.hpp"
+
+struct avr_t;
+struct avr_irq_t;
+struct elf_firmware_t;
+
+namespace scaratwin::robot {
+
+class AvrMachine {
+ public:
+  using PinCallback = std::function<void(bool level)>;
+  using ByteCallback = std::function<void(std::uint8_t byte)>;
+
+  // Loads `elf_path` into a new `mcu` ("atmega328p") running at `frequency_hz`.
+  static Result<std::unique_ptr<AvrMachine>> load(const std::string& elf_path,
+                                                  const std::string& mcu,
+                                                  std::uint32_t frequency_hz);
+  ~AvrMachine();
+  AvrMachine(const AvrMachine&) = delete;
+  AvrMachine& operator=(const AvrMachine&) = delete;
+
+  // Calls `cb` whenever the output level of pin `bit` of `port` ('B', 'C', 'D') changes.
+  void watch_pin(char port, int bit, PinCallback cb);
+  // Drives an input pin from outside (a switch, a button).
+  void drive_pin(char port, int bit, bool level);
+  // Every byte the firmware transmits on UART0.
+  void on_uart_output(ByteCallback cb);
+  // Queues a byte for the firmware's UART0 receiver.
+  void uart_send(std::uint8_t byte);
+  std::size_t uart_pending() const { return to_avr_.size(); }
+
+  // Runs until the cycle counter reaches `cycle`; false if the firmware crashed or stopped.
+  bool run_until(std::uint64_t cycle);
+  std::uint64_t cycle() const;
+  std::uint32_t frequency() const { return frequency_; }
+  double sim_seconds() const { return static_cast<double>(cycle()) / frequency_; }
+  std::uint64_t sim_us() const { return cycle() * 1000000ULL / frequency_; }
+
+ private:
+  AvrMachine() = default;
+  void feed_uart();
+  static void pin_hook(avr_irq_t* irq, std::uint32_t value, void* param);
+  static void uart_out_hook(avr_irq_t* irq, std::uint32_t value, void* param);
+  static void xon_hook(avr_irq_t* irq, std::uint32_t value, void* param);
+  static void xoff_hook(avr_irq_t* irq, std::uint32_t value, void* param);
+
+  avr_t* avr_ = nullptr;
+  elf_firmware_t* fw_ = nullptr;  // owned: simavr allocates its buffers, freed with it
+  std::uint32_t frequency_ = 16000000;
+  std::vector<std::unique_ptr<PinCallback>> pin_callbacks_;
+  ByteCallback uart_out_;
+  std::deque<std::uint8_t> to_avr_;
+  bool xoff_ = false;
+  avr_irq_t* uart_in_ = nullptr;
+};
+
+}  // namespace scaratwin::robot

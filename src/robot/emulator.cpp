@@ -1,0 +1,296 @@
+// SPDX-License-Identifier: GPL-3.0-or-later (scaratwin-robot emulator, see emulator.hpp)
+#include "emulator.hpp"
+
+#include <poll.h>
+#include <unistd.h>
+
+#include <chrono>
+#include <cstdio>
+#include <ctime>
+#include <fstream>
+#include <sstream>
+
+namespace scaratwin::robot {
+namespace {
+
+// Uno pins (board.h of the firmware): STEP PD2..4, DIR PD5..7, endstops PB1..3,
+// servos PC0 (gripper) / PC1 (wrist), buttons PC2..5, PB4, PB5.
+struct PinRef {
+  char port;
+  int bit;
+};
+constexpr std::array<PinRef, 3> kStep{{{'D', 2}, {'D', 3}, {'D', 4}}};
+constexpr std::array<PinRef, 3> kDir{{{'D', 5}, {'D', 6}, {'D', 7}}};
+constexpr std::array<PinRef, 3> kEndstop{{{'B', 1}, {'B', 2}, {'B', 3}}};
+constexpr std::array<PinRef, 2> kServo{{{'C', 0}, {'C', 1}}};
+constexpr std::array<PinRef, 6> kButton{
+    {{'C', 2}, {'C', 3}, {'C', 4}, {'C', 5}, {'B', 4}, {'B', 5}}};
+constexpr std::array<const char*, 6> kButtonNames{"z+", "z-", "j2+", "j2-", "j3+", "j3-"};
+constexpr std::array<const char*, 3> kAxisNames{"z", "j2", "j3"};
+
+std::uint64_t clock_us(clockid_t id) {
+  timespec ts{};
+  clock_gettime(id, &ts);
+  return static_cast<std::uint64_t>(ts.tv_sec) * 1000000ULL +
+         static_cast<std::uint64_t>(ts.tv_nsec) / 1000ULL;
+}
+
+int find_name(const auto& names, const std::string& s) {
+  for (std::size_t i = 0; i < names.size(); ++i)
+    if (s == names[i]) return static_cast<int>(i);
+  return -1;
+}
+
+}  // namespace
+
+Result<std::vector<ScenarioStep>> parse_scenario(const std::string& text) {
+  std::vector<ScenarioStep> steps;
+  std::istringstream in(text);
+  std::string line;
+  int line_no = 0;
+  while (std::getline(in, line)) {
+    ++line_no;
+    const auto hash = line.find('#');
+    if (hash != std::string::npos) line.erase(hash);
+    std::istringstream ls(line);
+    double t_ms = 0;
+    if (!(ls >> t_ms)) {
+      if (line.find_first_not_of(" \t\r") == std::string::npos) continue;
+      return Error{1, "scenario line " + std::to_string(line_no) + ": '" + line +
+                          "' does not start with a time in ms"};
+    }
+    std::string rest;
+    std::getline(ls >> std::ws, rest);
+    if (!rest.empty() && rest.back() == '\r') rest.pop_back();
+    if (rest.empty()) {
+      return Error{1, "scenario line " + std::to_string(line_no) + ": no command after the time"};
+    }
+    steps.push_back({t_ms / 1000.0, rest});
+  }
+  std::stable_sort(steps.begin(), steps.end(),
+                   [](const ScenarioStep& a, const ScenarioStep& b) { return a.t_s < b.t_s; });
+  return steps;
+}
+
+Emulator::Emulator(const EmulatorOptions& o, std::unique_ptr<AvrMachine> m, PtyLink pty,
+                   SideChannel side)
+    : options_(o),
+      avr_(std::move(m)),
+      pty_(std::move(pty)),
+      side_(std::move(side)),
+      mech_(o.mechanics) {}
+
+Result<std::unique_ptr<Emulator>> Emulator::create(const EmulatorOptions& options) {
+  std::vector<ScenarioStep> scenario;
+  if (!options.scenario.empty()) {
+    std::ifstream f(options.scenario);
+    if (!f) return Error{1, "cannot read scenario file '" + options.scenario + "'"};
+    std::stringstream ss;
+    ss << f.rdbuf();
+    auto parsed = parse_scenario(ss.str());
+    if (!parsed) return parsed.error();
+    scenario = std::move(parsed).value();
+  }
+  auto machine = AvrMachine::load(options.firmware, options.mcu, 16000000);
+  if (!machine) return machine.error();
+  auto pty = PtyLink::open();
+  if (!pty) return pty.error();
+  auto side = SideChannel::listen(options.side_port);
+  if (!side) return side.error();
+  std::unique_ptr<Emulator> e(new Emulator(options, std::move(machine).value(),
+                                           std::move(pty).value(), std::move(side).value()));
+  e->scenario_ = std::move(scenario);
+  e->wire_pins();
+  for (const auto& s : e->scenario_) {
+    // validate the commands now rather than failing in the middle of a run
+    std::istringstream ls(s.command);
+    std::string verb;
+    ls >> verb;
+    static const char* kVerbs[] = {"press", "release", "cut", "lose", "corrupt", "query", "rate"};
+    if (std::find_if(std::begin(kVerbs), std::end(kVerbs),
+                     [&](const char* v) { return verb == v; }) == std::end(kVerbs)) {
+      return Error{1, "scenario command '" + s.command +
+                          "' is unknown: use press, release, cut, lose or corrupt"};
+    }
+  }
+  return e;
+}
+
+void Emulator::wire_pins() {
+  for (int a = 0; a < kAxes; ++a) {
+    avr_->watch_pin(kDir[a].port, kDir[a].bit, [this, a](bool high) { mech_.on_dir(a, high); });
+    avr_->watch_pin(kStep[a].port, kStep[a].bit, [this, a](bool high) {
+      mech_.on_step(a, high, avr_->sim_us());
+      update_endstops();
+    });
+  }
+  for (int s = 0; s < 2; ++s) {
+    avr_->watch_pin(kServo[s].port, kServo[s].bit, [this, s](bool high) {
+      mech_.on_servo(s, high, avr_->cycle(), avr_->frequency() / 1e6);
+    });
+  }
+  avr_->on_uart_output([this](std::uint8_t b) { to_host(b); });
+  // inputs idle high (pull-ups): open switches, released buttons
+  for (int b = 0; b < 6; ++b) avr_->drive_pin(kButton[b].port, kButton[b].bit, true);
+  update_endstops();
+}
+
+void Emulator::update_endstops() {
+  const std::uint8_t es = mech_.endstops();
+  if (es == endstops_driven_) return;
+  for (int a = 0; a < kAxes; ++a) {
+    const bool closed = (es >> a) & 1;
+    if (endstops_driven_ == 0xff || closed != static_cast<bool>((endstops_driven_ >> a) & 1)) {
+      avr_->drive_pin(kEndstop[a].port, kEndstop[a].bit, !closed);  // closed pulls low
+    }
+  }
+  endstops_driven_ = es;
+}
+
+void Emulator::set_button(int button, bool pressed) {
+  if (pressed)
+    buttons_ = static_cast<std::uint8_t>(buttons_ | (1u << button));
+  else
+    buttons_ = static_cast<std::uint8_t>(buttons_ & ~(1u << button));
+  avr_->drive_pin(kButton[button].port, kButton[button].bit, !pressed);
+}
+
+bool Emulator::link_cut() const { return avr_->sim_seconds() < cut_until_s_; }
+
+void Emulator::from_host(const std::vector<std::uint8_t>& bytes) {
+  for (std::uint8_t b : bytes) {
+    if (link_cut()) continue;
+    if (corrupt_rx_ > 0) {
+      --corrupt_rx_;
+      b ^= 0x55;
+    }
+    last_rx_sim_us_ = avr_->sim_us();
+    avr_->uart_send(b);
+  }
+}
+
+void Emulator::to_host(std::uint8_t b) {
+  if (link_cut()) return;
+  if (corrupt_tx_ > 0) {
+    --corrupt_tx_;
+    b ^= 0x55;
+  }
+  pty_.put(b);
+}
+
+std::string Emulator::truth_line() const {
+  char buf[512];
+  const auto& s = mech_.steps();
+  std::snprintf(buf, sizeof buf,
+                "TR wall_us=%llu mono_us=%llu sim_us=%llu z=%d j2=%d j3=%d wrist_cdeg=%d "
+                "grip_cdeg=%d endstops=%u buttons=%u steps_z=%llu steps_j2=%llu steps_j3=%llu "
+                "last_step_sim_us=%llu last_rx_sim_us=%llu",
+                static_cast<unsigned long long>(clock_us(CLOCK_REALTIME)),
+                static_cast<unsigned long long>(clock_us(CLOCK_MONOTONIC)),
+                static_cast<unsigned long long>(avr_->sim_us()), s[0], s[1], s[2],
+                mech_.servo_cdeg(1), mech_.servo_cdeg(0), mech_.endstops(), buttons_,
+                static_cast<unsigned long long>(mech_.step_count(0)),
+                static_cast<unsigned long long>(mech_.step_count(1)),
+                static_cast<unsigned long long>(mech_.step_count(2)),
+                static_cast<unsigned long long>(mech_.last_step_sim_us()),
+                static_cast<unsigned long long>(last_rx_sim_us_));
+  return buf;
+}
+
+std::string Emulator::command(const std::string& line, int client) {
+  std::istringstream in(line);
+  std::string verb;
+  in >> verb;
+  const double now_s = avr_->sim_seconds();
+  if (verb == "query") return truth_line();
+  if (verb == "rate") {
+    double hz = -1;
+    if (!(in >> hz) || hz < 0 || hz > 10000) return "ERR rate needs 0..10000 Hz";
+    side_.set_rate(client, hz);
+    return "OK rate " + std::to_string(hz);
+  }
+  if (verb == "press" || verb == "release") {
+    std::string name;
+    in >> name;
+    const int b = find_name(kButtonNames, name);
+    if (b < 0) return "ERR unknown button '" + name + "': use z+ z- j2+ j2- j3+ j3-";
+    double ms = 0;
+    const bool timed = verb == "press" && static_cast<bool>(in >> ms);
+    if (timed && ms <= 0) return "ERR press duration must be > 0 ms";
+    set_button(b, verb == "press");
+    release_at_s_[b] = timed ? now_s + ms / 1000.0 : 0.0;
+    return "OK " + line;
+  }
+  if (verb == "cut") {
+    double ms = 0;
+    if (!(in >> ms) || ms <= 0) return "ERR cut needs a duration > 0 ms";
+    cut_until_s_ = now_s + ms / 1000.0;
+    return "OK " + line;
+  }
+  if (verb == "lose") {
+    std::string axis;
+    long n = 0;
+    in >> axis >> n;
+    const int a = find_name(kAxisNames, axis);
+    if (a < 0 || n <= 0) return "ERR lose needs an axis (z, j2, j3) and a step count > 0";
+    mech_.lose_steps(a, static_cast<std::int32_t>(n));
+    return "OK " + line;
+  }
+  if (verb == "corrupt") {
+    long n = 0;
+    std::string dir = "rx";
+    in >> n >> dir;
+    if (n <= 0 || (dir != "rx" && dir != "tx")) {
+      return "ERR corrupt needs a byte count > 0 and rx (to the firmware) or tx";
+    }
+    (dir == "rx" ? corrupt_rx_ : corrupt_tx_) += static_cast<std::uint32_t>(n);
+    return "OK " + line;
+  }
+  return "ERR unknown command '" + verb + "': use query, rate, press, release, cut, lose, corrupt";
+}
+
+Status Emulator::run(const volatile bool& stop) {
+  const std::uint64_t chunk = avr_->frequency() / 5000;  // 200 us of emulated time
+  const std::uint64_t wall0 = clock_us(CLOCK_MONOTONIC);
+  const double speed = options_.speed;
+  while (!stop) {
+    if (!avr_->run_until(avr_->cycle() + chunk)) {
+      return Error{1, "the firmware stopped or crashed at t = " +
+                          std::to_string(avr_->sim_seconds()) + " s"};
+    }
+    const double now_s = avr_->sim_seconds();
+    if (options_.duration_s > 0 && now_s >= options_.duration_s) break;
+    while (scenario_next_ < scenario_.size() && scenario_[scenario_next_].t_s <= now_s) {
+      const std::string reply = command(scenario_[scenario_next_].command, -1);
+      if (reply.rfind("ERR", 0) == 0) std::fprintf(stderr, "scenario: %s\n", reply.c_str());
+      ++scenario_next_;
+    }
+    for (int b = 0; b < 6; ++b) {
+      if (release_at_s_[b] > 0 && now_s >= release_at_s_[b]) {
+        set_button(b, false);
+        release_at_s_[b] = 0;
+      }
+    }
+    pty_.flush();
+    // wait for the wall clock (paced), handling input as it arrives; unpaced: just look
+    std::uint64_t due_us = 0;
+    if (speed > 0) due_us = wall0 + static_cast<std::uint64_t>(now_s / speed * 1e6);
+    do {
+      const std::uint64_t now_us = clock_us(CLOCK_MONOTONIC);
+      const long wait_us = due_us > now_us ? static_cast<long>(due_us - now_us) : 0;
+      std::vector<pollfd> fds;
+      fds.push_back({pty_.master_fd(), POLLIN, 0});
+      fds.push_back({side_.listen_fd(), POLLIN, 0});
+      for (int fd : side_.client_fds()) fds.push_back({fd, POLLIN, 0});
+      timespec ts{wait_us / 1000000, (wait_us % 1000000) * 1000};
+      ppoll(fds.data(), fds.size(), &ts, nullptr);
+      if (fds[0].revents & POLLIN) from_host(pty_.read_available());
+      side_.poll([this](const std::string& l, int c) { return command(l, c); });
+      side_.publish(clock_us(CLOCK_MONOTONIC), [this] { return truth_line(); });
+    } while (!stop && clock_us(CLOCK_MONOTONIC) < due_us);
+  }
+  pty_.flush();
+  return Ok{};
+}
+
+}  // namespace scaratwin::robot

@@ -1,0 +1,81 @@
+// scaratwin-robot: the emulated physical robot. Runs the firmware ELF in simavr, wires its
+// pins to the mechanics model (STEP/DIR counting, servo decoding, endstops, jog buttons), its
+// UART0 to a pseudo-terminal and the truth to the side channel, and paces the emulated time
+// to the wall clock (times --speed; 0 runs as fast as possible). Fault injection: a cut link,
+// lost steps, corrupted bytes; jog button presses from the side channel or a scenario file.
+//
+// SPDX-License-Identifier: GPL-3.0-or-later
+// Part of the scaratwin-robot emulator, which links libsimavr (GPL-3.0) and is therefore
+// distributed under the GNU General Public License, version 3 or later.
+#pragma once
+
+#include <array>
+#include <cstdint>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "avr_machine.hpp"
+#include "mechanics.hpp"
+#include "pty_link.hpp"
+#include "scaratwin/core/result.hpp"
+#include "side_channel.hpp"
+
+namespace scaratwin::robot {
+
+struct EmulatorOptions {
+  std::string firmware;  // ELF path
+  std::string mcu = "atmega328p";
+  double speed = 1.0;       // emulated seconds per wall second; 0 = unpaced
+  double duration_s = 0.0;  // stop after this much emulated time; 0 = run until signalled
+  std::uint16_t side_port = 0;
+  std::string scenario;     // scenario file
+  std::string pty_symlink;  // optional stable name for the pty
+  MechanicsConfig mechanics;
+};
+
+// One timed command of a scenario file: "<t_ms> <command>".
+struct ScenarioStep {
+  double t_s = 0.0;
+  std::string command;
+};
+Result<std::vector<ScenarioStep>> parse_scenario(const std::string& text);
+
+class Emulator {
+ public:
+  static Result<std::unique_ptr<Emulator>> create(const EmulatorOptions& options);
+  // Runs until the duration passes, `stop` becomes true or the firmware crashes.
+  Status run(const volatile bool& stop);
+
+  const PtyLink& pty() const { return pty_; }
+  const SideChannel& side() const { return side_; }
+  // Executes one side-channel / scenario command; returns the reply line.
+  std::string command(const std::string& line, int client);
+  std::string truth_line() const;
+
+ private:
+  Emulator(const EmulatorOptions& o, std::unique_ptr<AvrMachine> m, PtyLink pty, SideChannel side);
+  void wire_pins();
+  void update_endstops();
+  void set_button(int button, bool pressed);
+  void from_host(const std::vector<std::uint8_t>& bytes);
+  void to_host(std::uint8_t byte);
+  bool link_cut() const;
+
+  EmulatorOptions options_;
+  std::unique_ptr<AvrMachine> avr_;
+  PtyLink pty_;
+  SideChannel side_;
+  Mechanics mech_;
+  std::uint8_t endstops_driven_ = 0xff;
+  std::uint8_t buttons_ = 0;
+  std::array<double, 6> release_at_s_{};  // timed presses: emulated time of the release
+  double cut_until_s_ = 0.0;
+  std::uint32_t corrupt_rx_ = 0;
+  std::uint32_t corrupt_tx_ = 0;
+  std::uint64_t last_rx_sim_us_ = 0;
+  std::vector<ScenarioStep> scenario_;
+  std::size_t scenario_next_ = 0;
+};
+
+}  // namespace scaratwin::robot

@@ -1,0 +1,71 @@
+// scaratwin-robot: the side channel, a line-based TCP server on 127.0.0.1 through which tests,
+// the hub and latency measurements see the truth and drive the robot's surroundings.
+//
+// Emulator -> client, one line per sample, at the client's rate (default 100 Hz, wall clock)
+// and on request:
+//   TR wall_us=<CLOCK_REALTIME us> mono_us=<CLOCK_MONOTONIC us> sim_us=<emulated time us>
+//      z=<steps> j2=<steps> j3=<steps> wrist_cdeg=<c> grip_cdeg=<c> endstops=<mask>
+//      buttons=<mask> steps_z=<n> steps_j2=<n> steps_j3=<n> last_step_sim_us=<us>
+//      last_rx_sim_us=<us>
+// (one line; z/j2/j3 are the true motor positions counted from the STEP/DIR pins; steps_* the
+// STEP pulses seen, including lost ones; last_rx_sim_us the emulated time at which the last
+// byte from the host entered the firmware's UART.)
+// Client -> emulator, one command per line, answered "OK <command>" or "ERR <reason>":
+//   query | rate <hz> | press <button> [ms] | release <button> | cut <ms> |
+//   lose <z|j2|j3> <steps> | corrupt <n> [rx|tx]
+// Buttons: z+ z- j2+ j2- j3+ j3-. The same commands, each prefixed with an emulated time in
+// ms, make up a scenario file (--scenario).
+//
+// SPDX-License-Identifier: GPL-3.0-or-later
+// Part of the scaratwin-robot emulator (GPL-3.0-or-later because it links libsimavr).
+#pragma once
+
+#include <cstdint>
+#include <functional>
+#include <string>
+#include <vector>
+
+#include "scaratwin/core/result.hpp"
+
+namespace scaratwin::robot {
+
+class SideChannel {
+ public:
+  // Executes one command line; returns the reply ("OK ..." / "ERR ..."). `client` is the
+  // client's index, for per-client commands (rate).
+  using CommandHandler = std::function<std::string(const std::string& line, int client)>;
+
+  static Result<SideChannel> listen(std::uint16_t port);
+  SideChannel(SideChannel&& other) noexcept;
+  SideChannel& operator=(SideChannel&&) = delete;
+  SideChannel(const SideChannel&) = delete;
+  ~SideChannel();
+
+  std::uint16_t port() const { return port_; }
+  int listen_fd() const { return listen_fd_; }
+  std::vector<int> client_fds() const;
+
+  // Accepts new clients, reads their commands and answers them.
+  void poll(const CommandHandler& handler);
+  // Sends `line` to the clients whose rate makes a sample due at `mono_us` (or all with
+  // force); `line` ends without '\n'.
+  void publish(std::uint64_t mono_us, const std::function<std::string()>& make_line);
+  void send_to(int client, const std::string& line);
+  void set_rate(int client, double hz);
+
+ private:
+  struct Client {
+    int fd = -1;
+    std::string in;
+    double rate_hz = 100.0;
+    std::uint64_t next_us = 0;
+  };
+  SideChannel() = default;
+  void write_all(Client& c, const std::string& data);
+
+  int listen_fd_ = -1;
+  std::uint16_t port_ = 0;
+  std::vector<Client> clients_;
+};
+
+}  // namespace scaratwin::robot
