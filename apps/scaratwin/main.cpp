@@ -18,6 +18,7 @@ int main(int argc, char** argv) {
   add_kinematics_commands(app, common, run);
   add_plan_command(app, common, run);
   add_model_command(app, common, run);
+  add_sim_command(app, common, run);
   add_report_commands(app, common, run);
   try {
     app.parse(argc, argv);

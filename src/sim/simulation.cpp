@@ -308,6 +308,21 @@ void Simulation::stop() {
   if (mode_ == Mode::kSimulate) target_ = joints();
 }
 
+Status Simulation::reset_robot() {
+  traj_.reset();
+  target_ = robot_.home;
+  for (int j = 0; j < kNumJoints; ++j) {
+    d_->qpos[ids_.qpos[j]] = target_[j];
+    d_->qvel[ids_.dof[j]] = 0.0;
+    d_->ctrl[ids_.actuator[j]] = target_[j];
+  }
+  if (held_ >= 0) {
+    mj_kinematics(m_, d_);
+    carry_held_cube();
+  }
+  return forward();
+}
+
 void Simulation::apply_mirror_pose() {
   const GripperGeometry g = gripper_geometry(robot_);
   for (int j = 0; j < kNumJoints; ++j) {

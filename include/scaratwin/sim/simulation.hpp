@@ -125,6 +125,8 @@ class Simulation {
   Result<std::vector<JointWarning>> hold(const JointVector& q);
   // Stops any trajectory and holds the current joints.
   void stop();
+  // Puts the robot at its home pose at once (joints, velocities, targets), in either mode.
+  Status reset_robot();
   bool trajectory_active() const { return traj_.has_value(); }
 
   // --- gripper ------------------------------------------------------------------------------

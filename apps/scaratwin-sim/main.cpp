@@ -1,0 +1,174 @@
+// scaratwin-sim: the virtual robot as a server process (`scaratwin sim` runs it). MuJoCo
+// physics of the SCARA and its sorting scene, the overhead camera rendered offscreen, and the
+// protocol's virtual link on TCP (default 127.0.0.1:55016).
+#include <csignal>
+#include <cstdio>
+#include <thread>
+
+#include <fmt/format.h>
+#include <CLI/CLI.hpp>
+
+#include "scaratwin/config/robot_config.hpp"
+#include "scaratwin/core/units.hpp"
+#include "scaratwin/sim/server.hpp"
+#include "scaratwin/sim/world.hpp"
+
+namespace {
+
+volatile std::sig_atomic_t g_stop = 0;
+extern "C" void on_signal(int) { g_stop = 1; }
+
+struct Args {
+  std::string config_path;
+  std::string bind = "127.0.0.1";
+  int port = 55016;
+  std::string speed = "real";
+  int cubes_per_color = 4;
+  std::string max_image = "1280x960";
+  bool shadows = false;
+  bool no_camera = false;
+  int png_level = 1;
+  std::string save_images;
+  std::string mode = "mirror";
+  std::vector<std::string> spawn;
+  double timestep_s = 0.002;
+  double duration_s = 0.0;
+  double status_s = 0.0;
+};
+
+int fail(const std::string& message, int code = 2) {
+  std::fprintf(stderr, "scaratwin-sim: %s\n", message.c_str());
+  return code;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  using namespace scaratwin;
+  Args a;
+  CLI::App app{
+      "scaratwin-sim: the virtual SCARA (MuJoCo physics, gripper, overhead camera) "
+      "serving the protocol's virtual link",
+      "scaratwin-sim"};
+  app.add_option("--config", a.config_path,
+                 "robot description (TOML); default: "
+                 "$SCARATWIN_CONFIG or config/scara.toml");
+  app.add_option("--bind", a.bind, "address to listen on")->capture_default_str();
+  app.add_option("--port", a.port, "TCP port (0: any free port, printed)")->capture_default_str();
+  app.add_option("--speed", a.speed,
+                 "pace: 'real' (1x), a factor such as 2 or 0.5, or 'max' (trajectories as fast "
+                 "as possible, for prediction)")
+      ->capture_default_str();
+  app.add_option("--mode", a.mode, "initial mode: mirror or simulate")->capture_default_str();
+  app.add_option("--cubes-per-color", a.cubes_per_color, "cube pool per colour")
+      ->capture_default_str();
+  app.add_option("--spawn", a.spawn, "spawn a cube at start: COLOR,X_MM,Y_MM (repeat)");
+  app.add_option("--max-image", a.max_image, "largest camera image WxH (offscreen buffer)")
+      ->capture_default_str();
+  app.add_flag("--shadows", a.shadows, "render shadows (slower)");
+  app.add_flag("--no-camera", a.no_camera, "physics only, no EGL context");
+  app.add_option("--png-level", a.png_level, "zlib level of the PNGs, 0..9")->capture_default_str();
+  app.add_option("--save-images", a.save_images, "also save every shot to DIR/shot_N.png");
+  app.add_option("--timestep", a.timestep_s, "physics step, s")->capture_default_str();
+  app.add_option("--duration", a.duration_s,
+                 "exit after this many wall seconds (0: run until "
+                 "SIGINT/SIGTERM)")
+      ->capture_default_str();
+  app.add_option("--status", a.status_s, "print a status line every N seconds (0: never)")
+      ->capture_default_str();
+  CLI11_PARSE(app, argc, argv);
+
+  auto robot = load_robot_config_or_default(a.config_path);
+  if (!robot) return fail(robot.error().message);
+  sim::WorldOptions wo;
+  if (a.speed == "real") {
+    wo.speed = 1.0;
+  } else if (a.speed == "max") {
+    wo.speed = 0.0;
+  } else {
+    try {
+      wo.speed = std::stod(a.speed);
+    } catch (...) {
+      wo.speed = -1.0;
+    }
+    if (!(wo.speed > 0.0)) {
+      return fail(fmt::format("--speed '{}': expected real, max or a factor > 0", a.speed));
+    }
+  }
+  sim::SimOptions so;
+  so.mjcf.cubes_per_color = a.cubes_per_color;
+  so.mjcf.timestep_s = a.timestep_s;
+  if (std::sscanf(a.max_image.c_str(), "%dx%d", &so.mjcf.offscreen_width_px,
+                  &so.mjcf.offscreen_height_px) != 2) {
+    return fail(fmt::format("--max-image '{}': expected WxH, e.g. 1280x960", a.max_image));
+  }
+  so.mjcf.offscreen_width_px = std::max(so.mjcf.offscreen_width_px, robot->scene.camera.width_px);
+  so.mjcf.offscreen_height_px =
+      std::max(so.mjcf.offscreen_height_px, robot->scene.camera.height_px);
+  wo.camera = !a.no_camera;
+  wo.render.shadows = a.shadows;
+  wo.png_level = a.png_level;
+  if (a.png_level < 0 || a.png_level > 9) return fail("--png-level: expected 0..9");
+  if (a.port < 0 || a.port > 65535)
+    return fail(fmt::format("--port {}: expected 0..65535", a.port));
+  if (a.mode != "mirror" && a.mode != "simulate") {
+    return fail(fmt::format("--mode '{}': expected mirror or simulate", a.mode));
+  }
+
+  auto world = sim::World::create(*robot, so, wo);
+  if (!world) return fail(world.error().message, 1);
+  if (a.mode == "simulate") {
+    (*world)->with_simulation([](sim::Simulation& s) { s.set_mode(sim::Mode::kSimulate); });
+  }
+  for (const std::string& spec : a.spawn) {
+    char color[16] = {0};
+    double x_mm = 0, y_mm = 0;
+    if (std::sscanf(spec.c_str(), "%15[a-z],%lf,%lf", color, &x_mm, &y_mm) != 3) {
+      return fail(fmt::format("--spawn '{}': expected COLOR,X_MM,Y_MM", spec));
+    }
+    auto c = parse_color(color);
+    if (!c) return fail(fmt::format("--spawn '{}': {}", spec, c.error().message));
+    auto r = (*world)->with_simulation(
+        [&](sim::Simulation& s) { return s.spawn_cube(*c, mm_to_m(x_mm), mm_to_m(y_mm)); });
+    if (!r) return fail(fmt::format("--spawn '{}': {}", spec, r.error().message));
+  }
+
+  sim::ServerOptions serve;
+  serve.bind_address = a.bind;
+  serve.port = static_cast<std::uint16_t>(a.port);
+  serve.save_images_dir = a.save_images;
+  auto server = sim::SimServer::create(**world, serve);
+  if (!server) return fail(server.error().message, 1);
+  std::signal(SIGINT, on_signal);
+  std::signal(SIGTERM, on_signal);
+  (*world)->start();
+  std::printf("scaratwin-sim: listening on %s:%u (speed %s, mode %s, camera %s)\n", a.bind.c_str(),
+              (*server)->port(), a.speed.c_str(), a.mode.c_str(), wo.camera ? "on" : "off");
+  std::fflush(stdout);
+
+  const auto start = std::chrono::steady_clock::now();
+  auto next_status = start;
+  while (!g_stop) {
+    std::this_thread::sleep_for(std::chrono::milliseconds(50));
+    const auto now = std::chrono::steady_clock::now();
+    if (a.duration_s > 0 && now - start >= std::chrono::duration<double>(a.duration_s)) break;
+    if (a.status_s > 0 && now >= next_status) {
+      next_status = now + std::chrono::duration_cast<std::chrono::steady_clock::duration>(
+                              std::chrono::duration<double>(a.status_s));
+      const sim::Snapshot s = (*world)->snapshot();
+      const auto c = (*server)->counters();
+      std::printf(
+          "t %.2f s  rtf %.2f  %s  d1 %.1f mm q2 %.1f q3 %.1f q4 %.1f deg  cubes %zu  "
+          "packets %llu errors %llu images %llu\n",
+          s.time_s, s.real_time_factor, sim::mode_name(s.mode), m_to_mm(s.joints[0]),
+          rad_to_deg(s.joints[1]), rad_to_deg(s.joints[2]), rad_to_deg(s.joints[3]), s.cubes.size(),
+          static_cast<unsigned long long>(c.packets),
+          static_cast<unsigned long long>(c.errors_sent),
+          static_cast<unsigned long long>(c.images_sent));
+      std::fflush(stdout);
+    }
+  }
+  (*server).reset();
+  (*world)->stop();
+  return 0;
+}

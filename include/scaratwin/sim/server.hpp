@@ -1,0 +1,65 @@
+// The simulator's end of the virtual link: a TCP server (default 127.0.0.1:55016) that speaks
+// the protocol of docs/protocol.md section 7 for a World. Every line gets exactly one reply in
+// order (OP: one per object, then AK); joint-limit warnings (JW) go out unsolicited before the
+// reply of the packet that caused them. A line that does not decode gets its ER reply and
+// never reaches the simulation, so the scene stays untouched.
+//
+// Refusals (ER code, detail): JD in simulate mode or TJ in mirror mode -> 9 busy; an unknown
+// object id, a spawn off the table or on another cube, an image size beyond the offscreen
+// buffer -> 11 bad_value (detail: field index); a colour whose cube pool is used up -> 6
+// queue_full (detail 0); a protocol version other than 1 -> 13 (detail 1); a render failure
+// -> 15 internal.
+#pragma once
+
+#include <atomic>
+#include <cstdint>
+#include <memory>
+#include <string>
+
+#include "scaratwin/core/result.hpp"
+#include "scaratwin/sim/world.hpp"
+
+namespace scaratwin::transport {
+class TcpServer;
+class IoThread;
+}  // namespace scaratwin::transport
+
+namespace scaratwin::sim {
+
+struct ServerOptions {
+  std::string bind_address = "127.0.0.1";
+  std::uint16_t port = 55016;   // 0: an ephemeral port (see SimServer::port())
+  std::string save_images_dir;  // if set, every shot is also saved there as shot_<n>.png
+};
+
+struct ServerCounters {
+  std::uint64_t packets = 0;       // lines handled
+  std::uint64_t errors_sent = 0;   // ER replies
+  std::uint64_t joint_frames = 0;  // JD and TJ applied
+  std::uint64_t images_sent = 0;
+  std::uint64_t warnings_sent = 0;  // JW packets
+};
+
+class SimServer {
+ public:
+  // Binds and listens before returning; serves on its own io thread.
+  static Result<std::unique_ptr<SimServer>> create(World& world, const ServerOptions& options);
+  ~SimServer();
+  SimServer(const SimServer&) = delete;
+  SimServer& operator=(const SimServer&) = delete;
+
+  std::uint16_t port() const;
+  bool peer_connected() const;
+  ServerCounters counters() const;
+
+  // Handles one received line (without '\n') and returns the reply bytes: what the io thread
+  // does for every packet. Public for tests and for in-process use.
+  std::string handle_line(const std::string& line);
+
+ private:
+  explicit SimServer(World& world, ServerOptions options);
+  struct Impl;
+  std::unique_ptr<Impl> impl_;
+};
+
+}  // namespace scaratwin::sim

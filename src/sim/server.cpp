@@ -1,0 +1,305 @@
+// SimServer: protocol dispatch of the virtual link onto a World.
+#include <utility>  // before Boost headers (Boost 1.74 with g++ 12)
+
+#include "scaratwin/sim/server.hpp"
+
+#include <cmath>
+#include <filesystem>
+#include <mutex>
+
+#include <fmt/format.h>
+
+#include "scaratwin/protocol/codec.hpp"
+#include "scaratwin/transport/io_thread.hpp"
+#include "scaratwin/transport/tcp.hpp"
+
+namespace scaratwin::sim {
+namespace {
+
+namespace proto = scaratwin::protocol;
+namespace core = scaratwin::protocol::core;
+
+constexpr const char* kDeviceName = "scaratwin-sim";
+constexpr const char* kSoftwareVersion = "0.1.0";
+
+std::uint32_t wrap_us(double seconds) {
+  return static_cast<std::uint32_t>(static_cast<std::uint64_t>(std::llround(seconds * 1e6)));
+}
+
+proto::SimMode to_wire(Mode m) {
+  return m == Mode::kMirror ? proto::SimMode::kMirror : proto::SimMode::kSimulate;
+}
+
+}  // namespace
+
+struct SimServer::Impl {
+  World& world;
+  ServerOptions options;
+  std::shared_ptr<transport::IoThread> io;
+  std::unique_ptr<transport::TcpServer> link;
+  std::mutex handle_mutex;  // handle_line() from the io thread or from a test
+  proto::TcpToSimDecoder decoder;
+  std::uint16_t state_seq = 0;
+  std::uint64_t shots = 0;
+  std::atomic<std::uint64_t> packets{0}, errors_sent{0}, joint_frames{0}, images_sent{0},
+      warnings_sent{0};
+
+  Impl(World& w, ServerOptions o) : world(w), options(std::move(o)) {}
+
+  void put(std::string& out, const proto::TcpFromSim& m) {
+    if (std::holds_alternative<proto::ErrorReply>(m)) ++errors_sent;
+    if (Status st = proto::append(out, m); !st) {
+      // a value the wire cannot carry (e.g. a cube that flew off to infinity): say so
+      ++errors_sent;
+      (void)proto::append(out,
+                          proto::TcpFromSim(proto::ErrorReply{core::kErrInternal, std::nullopt}));
+    }
+  }
+  void error(std::string& out, std::int32_t code, std::optional<std::int32_t> detail = {}) {
+    put(out, proto::ErrorReply{code, detail});
+  }
+  void warnings(std::string& out, const std::vector<JointWarning>& ws) {
+    for (const JointWarning& w : ws) {
+      put(out, proto::JointWarning{w.joint + 1, w.value});
+      ++warnings_sent;
+    }
+  }
+
+  void on(std::string& out, const proto::Hello& m) {
+    if (m.version != core::kProtocolVersion) {
+      error(out, core::kErrVersion, core::kProtocolVersion);
+      return;
+    }
+    put(out, proto::PeerHello{core::kProtocolVersion, kDeviceName, kSoftwareVersion});
+  }
+  void on(std::string& out, const proto::Ping& m) { put(out, proto::Ack{"PI", m.token}); }
+  void on(std::string& out, const proto::JointData& m) {
+    auto r = world.with_simulation([&](Simulation& s) { return s.set_joints(m.q); });
+    reply_joint(out, r, m.seq);
+  }
+  void on(std::string& out, const proto::JointTargets& m) {
+    auto r = world.with_simulation([&](Simulation& s) { return s.hold(m.q); });
+    reply_joint(out, r, m.seq);
+  }
+  void reply_joint(std::string& out, const Result<std::vector<JointWarning>>& r,
+                   std::uint16_t seq) {
+    if (!r) {
+      error(out, r.error().code == static_cast<int>(SimError::kWrongMode) ? core::kErrBusy
+                                                                          : core::kErrBadValue);
+      return;
+    }
+    ++joint_frames;
+    warnings(out, *r);
+    put(out, proto::JointApplied{seq, static_cast<std::uint32_t>(transport::steady_now_us())});
+  }
+  void on(std::string& out, const proto::SetMode& m) {
+    world.with_simulation([&](Simulation& s) {
+      s.set_mode(m.mode == proto::SimMode::kMirror ? Mode::kMirror : Mode::kSimulate);
+    });
+    put(out, proto::Ack{"MD", std::nullopt});
+  }
+  void on(std::string& out, const proto::Grasp& m) {
+    const GripperStateValue g = world.with_simulation([&](Simulation& s) {
+      if (m.close) {
+        (void)s.grip();
+      } else {
+        s.release();
+      }
+      return GripperStateValue{s.gripper_closed(), s.held_cube()};
+    });
+    put(out, proto::GripperState{g.closed, g.held});
+  }
+  struct GripperStateValue {
+    bool closed;
+    int held;
+  };
+  void on(std::string& out, const proto::CameraShoot& m) {
+    if (!world.has_camera()) {
+      error(out, core::kErrInternal);
+      return;
+    }
+    if (m.width_px < 0 || m.width_px > world.max_image_width_px()) {
+      error(out, core::kErrBadValue, 0);
+      return;
+    }
+    if (m.height_px < 0 || m.height_px > world.max_image_height_px() ||
+        (m.width_px == 0) != (m.height_px == 0)) {
+      error(out, core::kErrBadValue, 1);
+      return;
+    }
+    auto png = world.shoot_png(m.width_px, m.height_px);
+    if (!png) {
+      std::fprintf(stderr, "scaratwin-sim: camera: %s\n", png.error().message.c_str());
+      error(out, core::kErrInternal);
+      return;
+    }
+    if (!options.save_images_dir.empty()) save(*png);
+    ++images_sent;
+    put(out, proto::Image{std::move(*png)});
+  }
+  void save(const std::vector<std::uint8_t>& png) {
+    const auto path =
+        std::filesystem::path(options.save_images_dir) / fmt::format("shot_{:05d}.png", shots++);
+    std::FILE* f = std::fopen(path.c_str(), "wb");
+    if (f == nullptr || std::fwrite(png.data(), 1, png.size(), f) != png.size()) {
+      std::fprintf(stderr, "scaratwin-sim: cannot write %s\n", path.c_str());
+    }
+    if (f != nullptr) std::fclose(f);
+  }
+  void on(std::string& out, const proto::SpawnCube& m) {
+    auto r =
+        world.with_simulation([&](Simulation& s) { return s.spawn_cube(m.color, m.x_m, m.y_m); });
+    if (!r) {
+      const int code = r.error().code;
+      if (code == static_cast<int>(SimError::kPoolExhausted)) {
+        error(out, core::kErrQueueFull, 0);
+      } else {
+        error(out, core::kErrBadValue, 1);
+      }
+      return;
+    }
+    put(out, proto::Ack{"SC", r->id});
+  }
+  void on(std::string& out, const proto::ResetScene&) {
+    Status st = world.with_simulation([](Simulation& s) {
+      s.reset_scene();
+      return s.reset_robot();
+    });
+    if (!st) {
+      error(out, core::kErrInternal);
+      return;
+    }
+    put(out, proto::Ack{"RS", std::nullopt});
+  }
+  void on(std::string& out, const proto::QueryObjects& m) {
+    std::vector<CubeState> cubes;
+    bool found = true;
+    world.with_simulation([&](Simulation& s) {
+      if (m.id) {
+        auto c = s.cube(*m.id);
+        found = c.ok();
+        if (found) cubes.push_back(*c);
+      } else {
+        cubes = s.cubes();
+      }
+    });
+    if (!found) {
+      error(out, core::kErrBadValue, 0);
+      return;
+    }
+    for (const CubeState& c : cubes) {
+      const auto& q = c.quat_wxyz;
+      const double yaw =
+          std::atan2(2.0 * (q[0] * q[3] + q[1] * q[2]), 1.0 - 2.0 * (q[2] * q[2] + q[3] * q[3]));
+      put(out, proto::ObjectPose{c.id, c.color, c.pos_m[0], c.pos_m[1], c.pos_m[2], yaw});
+    }
+    put(out, proto::Ack{"OP", static_cast<std::int32_t>(cubes.size())});
+  }
+  void on(std::string& out, const proto::QueryState&) {
+    proto::SimState st;
+    world.with_simulation([&](Simulation& s) {
+      st.seq = state_seq++;
+      st.t_us = wrap_us(s.time_s());
+      st.q = s.joints();
+      st.grip_closed = s.gripper_closed();
+      st.held_id = s.held_cube();
+      st.mode = to_wire(s.mode());
+    });
+    put(out, st);
+  }
+  void on(std::string& out, const proto::Stop&) {
+    world.with_simulation([](Simulation& s) { s.stop(); });
+    put(out, proto::Ack{"SP", std::nullopt});
+  }
+
+  std::string handle(const std::string& line) {
+    std::lock_guard lock(handle_mutex);
+    ++packets;
+    std::string out;
+    std::string framed = line;
+    framed += '\n';
+    int seen = 0;
+    decoder.feed(framed, [&](proto::Decoded<proto::TcpToSim>&& d) {
+      ++seen;
+      if (auto* e = std::get_if<proto::DecodeError>(&d)) {
+        error(out, e->code, e->detail);
+        return;
+      }
+      std::visit([&](const auto& m) { on(out, m); }, std::get<proto::TcpToSim>(d));
+    });
+    if (seen == 0) {
+      // an incomplete line cannot happen here; keep the one-reply rule anyway
+      decoder.reset();
+      error(out, core::kErrBadCharacter, 0);
+    }
+    return out;
+  }
+};
+
+SimServer::SimServer(World& world, ServerOptions options)
+    : impl_(std::make_unique<Impl>(world, std::move(options))) {}
+
+SimServer::~SimServer() {
+  if (impl_->link) impl_->link->close();
+}
+
+Result<std::unique_ptr<SimServer>> SimServer::create(World& world, const ServerOptions& options) {
+  std::unique_ptr<SimServer> s(new SimServer(world, options));
+  Impl& impl = *s->impl_;
+  if (!options.save_images_dir.empty()) {
+    std::error_code ec;
+    std::filesystem::create_directories(options.save_images_dir, ec);
+    if (ec) {
+      return Error{static_cast<int>(SimError::kBadArgument),
+                   fmt::format("--save-images '{}': {}", options.save_images_dir, ec.message())};
+    }
+  }
+  impl.io = transport::IoThread::create("scaratwin-sim-io");
+  transport::TcpServerOptions o;
+  o.bind_address = options.bind_address;
+  o.port = options.port;
+  auto link = transport::TcpServer::create(o, impl.io);
+  if (!link) return link.error();
+  impl.link = std::move(*link);
+  transport::TcpServer* raw = impl.link.get();
+  impl.link->set_packet_handler([&impl, raw](transport::RxPacket&& p) {
+    std::string reply;
+    switch (p.kind) {
+      case transport::FrameKind::kLine:
+        reply = impl.handle(p.line);
+        break;
+      case transport::FrameKind::kOverlong:
+        ++impl.packets;
+        impl.error(reply, core::kErrLineTooLong, 512);
+        break;
+      case transport::FrameKind::kBinary:
+        // an image sent to the simulator: IM is not a hub -> simulator code
+        ++impl.packets;
+        impl.error(reply, core::kErrUnknownCode);
+        break;
+      case transport::FrameKind::kOversize:
+        ++impl.packets;
+        impl.error(reply, core::kErrPayloadTooLarge);
+        break;
+    }
+    if (!reply.empty()) (void)raw->send(std::move(reply));
+  });
+  return s;
+}
+
+std::uint16_t SimServer::port() const { return impl_->link->port(); }
+bool SimServer::peer_connected() const { return impl_->link->connected(); }
+
+ServerCounters SimServer::counters() const {
+  ServerCounters c;
+  c.packets = impl_->packets;
+  c.errors_sent = impl_->errors_sent;
+  c.joint_frames = impl_->joint_frames;
+  c.images_sent = impl_->images_sent;
+  c.warnings_sent = impl_->warnings_sent;
+  return c;
+}
+
+std::string SimServer::handle_line(const std::string& line) { return impl_->handle(line); }
+
+}  // namespace scaratwin::sim
