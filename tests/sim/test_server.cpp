@@ -1,0 +1,175 @@
+// The simulator's TCP server: a real client on loopback, replies in order, images, and
+// malformed packets that get an error reply and leave the scene untouched.
+#include <utility>
+
+#include <gtest/gtest.h>
+
+#include "scaratwin/config/robot_config.hpp"
+#include "scaratwin/sim/camera.hpp"
+#include "scaratwin/sim/server.hpp"
+#include "scaratwin/sim/world.hpp"
+#include "scaratwin/transport/tcp.hpp"
+
+namespace scaratwin::sim {
+namespace {
+
+using transport::Duration;
+
+class SimServerTest : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    auto m = load_robot_config(SCARATWIN_CONFIG_FILE);
+    ASSERT_TRUE(m.ok());
+    auto w = World::create(*m);
+    ASSERT_TRUE(w.ok()) << w.error().message;
+    world_ = std::move(*w);
+    ServerOptions o;
+    o.port = 0;
+    auto s = SimServer::create(*world_, o);
+    ASSERT_TRUE(s.ok()) << s.error().message;
+    server_ = std::move(*s);
+    transport::TcpClientOptions c;
+    c.port = server_->port();
+    auto client = transport::TcpClient::create(c);
+    ASSERT_TRUE(client.ok());
+    client_ = std::move(*client);
+    ASSERT_TRUE(client_->wait_connected(Duration(3000)).ok());
+  }
+
+  // The next `n` frames from the simulator, as text lines ("IM,<n>," for images).
+  std::vector<transport::RxPacket> receive(int n) {
+    std::vector<transport::RxPacket> out;
+    for (int i = 0; i < n; ++i) {
+      auto p = client_->receive(Duration(5000));
+      EXPECT_TRUE(p.ok()) << "reply " << i << " missing";
+      if (!p.ok()) break;
+      out.push_back(std::move(*p));
+    }
+    return out;
+  }
+  std::vector<std::string> lines(int n) {
+    std::vector<std::string> out;
+    for (auto& p : receive(n)) out.push_back(p.line);
+    return out;
+  }
+
+  std::unique_ptr<World> world_;
+  std::unique_ptr<SimServer> server_;
+  std::unique_ptr<transport::TcpClient> client_;
+};
+
+TEST_F(SimServerTest, MixedWriteIsAnsweredInOrder) {
+  ASSERT_TRUE(client_
+                  ->send("HI,1,\nPI,42,\nJD,17,5000123,80,12.5,-30.25,90,\nSC,green,150,20,\n"
+                         "SC,red,200,60,\nOP,\nQS,\n")
+                  .ok());
+  const auto r = lines(9);
+  ASSERT_EQ(r.size(), 9u);
+  EXPECT_EQ(r[0], "HI,1,scaratwin-sim,0.1.0,");
+  EXPECT_EQ(r[1], "AK,PI,42,");
+  EXPECT_EQ(r[2].rfind("JA,17,", 0), 0u) << r[2];
+  EXPECT_EQ(r[3].rfind("AK,SC,", 0), 0u) << r[3];
+  EXPECT_EQ(r[4].rfind("AK,SC,", 0), 0u) << r[4];
+  EXPECT_EQ(r[5].rfind("OP,", 0), 0u);
+  EXPECT_EQ(r[6].rfind("OP,", 0), 0u);
+  EXPECT_EQ(r[7], "AK,OP,2,");
+  EXPECT_EQ(r[8].rfind("ST,0,", 0), 0u) << r[8];
+  EXPECT_NE(r[8].find(",80,12.5,-30.25,90,0,-1,mirror,"), std::string::npos) << r[8];
+  const Snapshot s = world_->snapshot();
+  EXPECT_NEAR(s.joints[0], 0.08, 1e-12);
+  EXPECT_EQ(s.cubes.size(), 2u);
+}
+
+TEST_F(SimServerTest, CameraShootSendsAPngOfTheRequestedSize) {
+  ASSERT_TRUE(client_->send("CS,320,240,\nCS,\n").ok());
+  auto r = receive(2);
+  ASSERT_EQ(r.size(), 2u);
+  const std::pair<int, int> sizes[] = {
+      {320, 240}, {world_->robot().scene.camera.width_px, world_->robot().scene.camera.height_px}};
+  for (int i = 0; i < 2; ++i) {
+    ASSERT_EQ(r[i].kind, transport::FrameKind::kBinary);
+    EXPECT_EQ(r[i].line, "IM," + std::to_string(r[i].payload.size()) + ",");
+    auto img = decode_png(r[i].payload);
+    ASSERT_TRUE(img.ok()) << img.error().message;
+    EXPECT_EQ(img->width_px, sizes[i].first);
+    EXPECT_EQ(img->height_px, sizes[i].second);
+  }
+  // beyond the offscreen buffer: refused, and the link goes on
+  ASSERT_TRUE(client_->send("CS,5000,10,\nPI,\n").ok());
+  EXPECT_EQ(lines(2), (std::vector<std::string>{"ER,11,0,", "AK,PI,"}));
+}
+
+TEST_F(SimServerTest, MalformedPacketsGetErrorsAndLeaveTheSceneUntouched) {
+  ASSERT_TRUE(client_->send("SC,blue,120,-10,\nJD,1,0,80,10,20,30,\n").ok());
+  ASSERT_EQ(lines(2).size(), 2u);
+  world_->set_paused(true);
+  world_->start();
+  const Snapshot before = world_->snapshot();
+  const std::string bad =
+      "JD,1,2,\n"                     // wrong field count
+      "XX,\n"                         // unknown code
+      "JD,1,nan,0,0,0,0,\n"           // bad number
+      "JD,2,5,1e3,0,0,0,\n"           // exponent
+      "SC,purple,100,0,\n"            // unknown colour
+      "SC,red,9000,0,\n"              // off the table
+      "SC,red,120,-10,\n"             // on the blue cube
+      "OP,99,\n"                      // no such object
+      "TJ,3,5,80,0,0,0,\n"            // simulate-mode command in mirror mode
+      "MD,sideways,\n"                // unknown mode
+      "GR,7,\n"                       // not 0 or 1
+      "JD 1 2 3\n"                    // no delimiters
+      "HI,2,\n"                       // wrong protocol version
+      "IM,3,\nabc"                    // an image sent to the simulator
+      + std::string(600, 'J') + "\n"  // too long
+      + "\x01\x02,\n";                // control bytes
+  ASSERT_TRUE(client_->send(bad).ok());
+  const auto r = lines(16);
+  ASSERT_EQ(r.size(), 16u);
+  for (const std::string& line : r) EXPECT_EQ(line.rfind("ER,", 0), 0u) << line;
+  EXPECT_EQ(r[0], "ER,4,2,");
+  EXPECT_EQ(r[1].rfind("ER,3,", 0), 0u);
+  EXPECT_EQ(r[2], "ER,5,1,");
+  EXPECT_EQ(r[6], "ER,11,1,");
+  EXPECT_EQ(r[8].rfind("ER,9,", 0), 0u);
+  EXPECT_EQ(r[12], "ER,13,1,");
+  EXPECT_EQ(r[14], "ER,1,512,");
+  const Snapshot after = world_->snapshot();
+  EXPECT_EQ(after.time_s, before.time_s);
+  EXPECT_EQ(after.joints, before.joints);
+  EXPECT_EQ(after.mode, before.mode);
+  EXPECT_EQ(after.gripper_closed, before.gripper_closed);
+  ASSERT_EQ(after.cubes.size(), before.cubes.size());
+  for (std::size_t i = 0; i < after.cubes.size(); ++i) {
+    EXPECT_EQ(after.cubes[i].pos_m, before.cubes[i].pos_m);
+    EXPECT_EQ(after.cubes[i].quat_wxyz, before.cubes[i].quat_wxyz);
+  }
+  // and a good packet right after is served normally
+  ASSERT_TRUE(client_->send("PI,1,\n").ok());
+  EXPECT_EQ(lines(1), std::vector<std::string>{"AK,PI,1,"});
+}
+
+TEST_F(SimServerTest, JointLimitWarningComesBeforeTheReply) {
+  const std::string reply = server_->handle_line("JD,4,0,80,130,0,0,");
+  EXPECT_EQ(reply.rfind("JW,2,130,\nJA,4,", 0), 0u) << reply;
+  EXPECT_EQ(world_->snapshot().warnings_total, 1u);
+  EXPECT_EQ(server_->counters().warnings_sent, 1u);
+}
+
+TEST_F(SimServerTest, SimulateModeFollowsTargetsAndGrasps) {
+  world_->start();
+  ASSERT_TRUE(client_->send("MD,simulate,\nSC,red,150,0,\nJD,1,0,80,0,0,0,\n").ok());
+  const auto r = lines(3);
+  EXPECT_EQ(r[0], "AK,MD,");
+  EXPECT_EQ(r[2].rfind("ER,9,", 0), 0u);  // mirror data refused in simulate mode
+  ASSERT_TRUE(client_->send("TJ,1,0,47,0,0,0,\n").ok());
+  const auto ja = lines(1);
+  ASSERT_EQ(ja[0].rfind("JA,1,", 0), 0u);
+  // d1 0.047 puts the tool at the grasp height over x = 0.067 + 0.187 = 0.254: no cube there
+  std::this_thread::sleep_for(std::chrono::milliseconds(600));
+  EXPECT_NEAR(world_->snapshot().joints[0], 0.047, 1e-3);
+  ASSERT_TRUE(client_->send("GR,1,\nGR,0,\n").ok());
+  EXPECT_EQ(lines(2), (std::vector<std::string>{"GR,1,-1,", "GR,0,-1,"}));
+}
+
+}  // namespace
+}  // namespace scaratwin::sim
