@@ -1,0 +1,280 @@
+// The control statements and the channels under them, against protocol-speaking peers over a
+// pty (device) and a TCP socket (simulator).
+#include "scaratwin/transport/statements.hpp"
+
+#include <gtest/gtest.h>
+
+#include <fstream>
+#include <random>
+
+#include "peers.hpp"
+#include "scaratwin/core/units.hpp"
+#include "scaratwin/kinematics/motor.hpp"
+#include "scaratwin/transport/serial.hpp"
+#include "scaratwin/transport/tcp.hpp"
+
+namespace scaratwin::transport {
+namespace {
+
+using testing::DevicePeer;
+using testing::SimPeer;
+constexpr Duration kWait{5000};
+
+template <class T>
+bool eventually_size(std::mutex& m, const std::vector<T>& v, std::size_t n) {
+  for (int i = 0; i < 1000; ++i) {
+    {
+      std::lock_guard lock(m);
+      if (v.size() >= n) return true;
+    }
+    std::this_thread::sleep_for(std::chrono::milliseconds(5));
+  }
+  return false;
+}
+
+// A twin wired to both peers.
+struct Rig {
+  RobotModel model = paper_robot();
+  DevicePeer device;
+  SimPeer sim;
+  std::unique_ptr<SerialLink> serial;
+  std::unique_ptr<TcpClient> tcp;
+  std::unique_ptr<RobotChannel> robot;
+  std::unique_ptr<SimChannel> simc;
+  std::unique_ptr<Twin> twin;
+
+  Rig() {
+    SerialOptions so;
+    so.device = device.path();
+    serial = std::move(SerialLink::create(so).value());
+    TcpClientOptions to;
+    to.port = sim.port();
+    to.link.reconnect_min = Duration{20};
+    to.link.reconnect_max = Duration{50};
+    tcp = std::move(TcpClient::create(to).value());
+    robot = std::make_unique<RobotChannel>(*serial, robot_channel_defaults());
+    simc = std::make_unique<SimChannel>(*tcp);
+    twin = std::make_unique<Twin>(model, robot.get(), simc.get());
+  }
+  bool up() { return serial->wait_connected(kWait) && tcp->wait_connected(kWait); }
+};
+
+TEST(Statements, ReadPhysicalJointsConvertsStepsAndStoresThem) {
+  Rig rig;
+  ASSERT_TRUE(rig.up());
+  auto j = rig.twin->read_physical_joints();
+  ASSERT_TRUE(j) << j.error().message;
+  const JointVector want = motors_to_joints(rig.model, {1000, -500, 300}, rad_to_deg(0.5));
+  for (int i = 0; i < 3; ++i) EXPECT_NEAR(j->q[i], want[i], 1e-9) << i;
+  EXPECT_NEAR(j->q[3], want[3], deg_to_rad(0.01));  // the wire carries centidegrees
+  EXPECT_EQ(j->seq, 100);
+  EXPECT_EQ(j->queue_free, DevicePeer::kSlots);
+  EXPECT_GT(j->rx_system_us, 0);
+  {
+    std::lock_guard lock(rig.device.m);
+    rig.device.steps = {2000, 0, 0};
+  }
+  auto j2 = rig.twin->read_physical_joints();
+  ASSERT_TRUE(j2);
+  EXPECT_NEAR(j2->q[0], 2000.0 / rig.model.motors.z.steps_per_unit, 1e-12);
+  auto log = rig.twin->stored_joints();
+  ASSERT_EQ(log.size(), 2u);
+  EXPECT_EQ(log[1].seq, 101);
+  EXPECT_EQ(rig.serial->counters().lost_packets, 0u);
+}
+
+TEST(Statements, StateSequenceGapsAreCountedAsLost) {
+  Rig rig;
+  ASSERT_TRUE(rig.up());
+  rig.device.seq_step = 3;  // two reports "lost" between each
+  for (int i = 0; i < 4; ++i) ASSERT_TRUE(rig.twin->read_physical_joints());
+  EXPECT_EQ(rig.serial->counters().lost_packets, 6u);
+  EXPECT_EQ(rig.robot->lost_packets(), 6u);
+}
+
+TEST(Statements, SendJointsToVirtualWaitsForTheApply) {
+  Rig rig;
+  ASSERT_TRUE(rig.up());
+  const JointVector q{0.1, deg_to_rad(12.5), deg_to_rad(-30.25), deg_to_rad(90)};
+  for (int i = 0; i < 3; ++i) {
+    auto a = rig.twin->send_joints_to_virtual(q);
+    ASSERT_TRUE(a) << a.error().message;
+    EXPECT_EQ(a->seq, i);
+    EXPECT_GE(a->latency_us, 0);
+    EXPECT_GE(a->round_trip_us, 0);
+    EXPECT_LT(a->latency_us, 5'000'000);
+  }
+  std::lock_guard lock(rig.sim.m);
+  ASSERT_EQ(rig.sim.joints.size(), 3u);
+  for (int i = 0; i < kNumJoints; ++i) EXPECT_NEAR(rig.sim.joints[2].q[i], q[i], 1e-6);
+}
+
+TEST(Statements, ObjectPositionFromTheVirtualScene) {
+  Rig rig;
+  ASSERT_TRUE(rig.up());
+  {
+    std::lock_guard lock(rig.sim.m);
+    rig.sim.objects = {{1, CubeColor::kRed, 0.15, 0.02, -0.03, 0.1},
+                       {2, CubeColor::kBlue, 0.2, -0.05, -0.03, 0.0}};
+  }
+  auto p = rig.twin->object_position(2);
+  ASSERT_TRUE(p) << p.error().message;
+  EXPECT_EQ(p->color, CubeColor::kBlue);
+  EXPECT_NEAR(p->x_m, 0.2, 1e-6);
+  EXPECT_NEAR(p->y_m, -0.05, 1e-6);
+  auto all = rig.twin->object_positions();
+  ASSERT_TRUE(all);
+  EXPECT_EQ(all->size(), 2u);
+  auto missing = rig.twin->object_position(9);
+  ASSERT_FALSE(missing);
+  EXPECT_NE(missing.error().message.find("9"), std::string::npos);
+}
+
+TEST(Statements, LoadTrajectoryHonoursCreditAndTheReceiveWindow) {
+  Rig rig;
+  ASSERT_TRUE(rig.up());
+  const JointVector q0 = rig.model.home;
+  const JointVector q1{0.08, deg_to_rad(40), deg_to_rad(-60), deg_to_rad(30)};
+  JointTrajectory traj = quintic(q0, q1, 0.6, 60);
+  traj.events.push_back({0.3, GripperAction::kGrip});
+  auto load = rig.twin->load_trajectory(traj);
+  ASSERT_TRUE(load) << load.error().message;
+  EXPECT_EQ(load->points, 60);
+  EXPECT_EQ(load->device_slots, DevicePeer::kSlots);
+  EXPECT_GT(load->credit_polls, 0);  // 60 points through 8 slots needs freed slots
+  std::lock_guard lock(rig.device.m);
+  EXPECT_EQ(rig.device.overflows, 0);
+  EXPECT_LE(rig.device.max_unanswered, kSerialWindowBytes);
+  ASSERT_EQ(rig.device.received.size(), 60u);
+  int with_grip = 0;
+  for (std::size_t k = 0; k < 60; ++k) {
+    const auto& p = rig.device.received[k];
+    EXPECT_EQ(p.seq, static_cast<std::int32_t>(k));
+    const auto steps = joints_to_steps(rig.model, traj.samples[k].q);
+    EXPECT_EQ(p.steps[0], steps[0]);
+    EXPECT_EQ(p.steps[1], steps[1]);
+    EXPECT_EQ(p.steps[2], steps[2]);
+    EXPECT_GE(p.dt_s, 0.001);
+    if (p.grip_rad) {
+      ++with_grip;
+      EXPECT_NEAR(*p.grip_rad, deg_to_rad(rig.model.motors.gripper_closed_deg), 1e-3);
+      EXPECT_GE(traj.samples[k].t_s, 0.3 - 1e-9);
+    }
+  }
+  EXPECT_EQ(with_grip, 1);
+}
+
+TEST(Statements, GripReleaseAndPicture) {
+  Rig rig;
+  ASSERT_TRUE(rig.up());
+  auto g = rig.twin->grip();
+  ASSERT_TRUE(g) << g.error().message;
+  EXPECT_TRUE(g->virtual_closed);
+  EXPECT_EQ(g->held_id, 7);
+  auto r = rig.twin->release(Robots::kVirtual);
+  ASSERT_TRUE(r);
+  EXPECT_FALSE(r->virtual_closed);
+  {
+    std::lock_guard lock(rig.device.m);
+    ASSERT_EQ(rig.device.grip_commands.size(), 1u);
+    EXPECT_NEAR(rig.device.grip_commands[0], deg_to_rad(rig.model.motors.gripper_closed_deg), 1e-3);
+  }
+
+  std::vector<std::uint8_t> png{0x89, 'P', 'N', 'G', '\r', '\n', 0x1a, '\n'};
+  std::mt19937 rng(3);
+  for (int i = 0; i < 200000; ++i) png.push_back(static_cast<std::uint8_t>(rng()));
+  {
+    std::lock_guard lock(rig.sim.m);
+    rig.sim.png = png;
+  }
+  const auto path = std::filesystem::temp_directory_path() / "scaratwin-test-image.png";
+  auto pic = rig.twin->take_picture(path);
+  ASSERT_TRUE(pic) << pic.error().message;
+  EXPECT_TRUE(*pic == png);
+  std::ifstream f(path, std::ios::binary);
+  std::vector<std::uint8_t> saved((std::istreambuf_iterator<char>(f)), {});
+  EXPECT_TRUE(saved == png);
+  std::filesystem::remove(path);
+
+  auto refused = rig.twin->take_picture({}, 1, 1);  // the peer answers ER 15
+  ASSERT_FALSE(refused);
+  EXPECT_EQ(refused.error().code, protocol::core::kErrInternal);
+  EXPECT_NE(refused.error().message.find("internal"), std::string::npos);
+}
+
+TEST(Statements, WithoutARobotTheStatementSaysSo) {
+  RobotModel model = paper_robot();
+  Twin twin(model, nullptr, nullptr);
+  auto r = twin.read_physical_joints();
+  ASSERT_FALSE(r);
+  EXPECT_EQ(r.error().code, static_cast<int>(TransportError::kNotConnected));
+  EXPECT_NE(r.error().message.find("physical"), std::string::npos);
+  EXPECT_FALSE(twin.take_picture());
+}
+
+TEST(Channel, TimedOutRequestDoesNotShiftLaterReplies) {
+  Rig rig;
+  ASSERT_TRUE(rig.up());
+  rig.sim.ignore_pings = true;
+  auto lost = rig.simc->request(protocol::Ping{5}, Duration{100});
+  ASSERT_FALSE(lost);
+  EXPECT_EQ(lost.error().code, protocol::core::kErrTimeout);
+  rig.sim.ignore_pings = false;
+  auto hello = rig.simc->request(protocol::Hello{}, kWait);
+  ASSERT_TRUE(hello) << hello.error().message;
+  EXPECT_TRUE(std::holds_alternative<protocol::PeerHello>(hello->last()));
+  auto ping = rig.simc->request(protocol::Ping{6}, kWait);
+  ASSERT_TRUE(ping);
+  const auto* ak = std::get_if<protocol::Ack>(&ping->last());
+  ASSERT_NE(ak, nullptr);
+  EXPECT_EQ(ak->value, 6);
+
+  rig.device.ignore_queries = true;
+  auto st = rig.robot->request(protocol::QueryState{}, Duration{100});
+  ASSERT_FALSE(st);
+  EXPECT_EQ(st.error().code, protocol::core::kErrTimeout);
+}
+
+TEST(Channel, DisconnectFailsPendingRequestsAndUnsolicitedPacketsArrive) {
+  Rig rig;
+  ASSERT_TRUE(rig.up());
+  std::mutex m;
+  std::vector<protocol::SerialFromDevice> events;
+  rig.robot->set_unsolicited_handler([&](protocol::SerialFromDevice&& msg, const RxPacket&) {
+    std::lock_guard lock(m);
+    events.push_back(std::move(msg));
+  });
+  rig.device.send("EV=3=60=\nST=1=2=0=0=0=0=0=0=8=\nXX=\n");
+  ASSERT_TRUE(eventually_size(m, events, 2u));
+  {
+    std::lock_guard lock(m);
+    const auto* ev = std::get_if<protocol::DeviceEvent>(&events[0]);
+    ASSERT_NE(ev, nullptr);
+    EXPECT_EQ(ev->event, protocol::DeviceEventCode::kTrajectoryDone);
+    EXPECT_TRUE(std::holds_alternative<protocol::DeviceState>(events[1]));
+  }
+  for (int i = 0; i < 200 && rig.robot->decode_errors() == 0; ++i) {
+    std::this_thread::sleep_for(std::chrono::milliseconds(5));
+  }
+  EXPECT_EQ(rig.robot->decode_errors(), 1u);  // XX is not a code
+
+  rig.sim.ignore_pings = true;
+  std::thread dropper([&] {
+    std::this_thread::sleep_for(std::chrono::milliseconds(100));
+    rig.sim.drop();
+  });
+  const auto t0 = std::chrono::steady_clock::now();
+  auto r = rig.simc->request(protocol::Ping{1}, Duration{10000});
+  dropper.join();
+  ASSERT_FALSE(r);
+  EXPECT_EQ(r.error().code, protocol::core::kErrDisconnected);
+  EXPECT_LT(std::chrono::steady_clock::now() - t0, std::chrono::seconds(5));
+  // and the link comes back by itself
+  rig.sim.ignore_pings = false;
+  ASSERT_TRUE(rig.tcp->wait_connected(kWait));
+  auto again = rig.simc->request(protocol::Ping{2}, kWait);
+  ASSERT_TRUE(again) << again.error().message;
+}
+
+}  // namespace
+}  // namespace scaratwin::transport
