@@ -144,38 +144,6 @@ inline bool is_graphic(char c) {
 const uint32_t kPow10[10] = {1UL,      10UL,      100UL,      1000UL,      10000UL,
                              100000UL, 1000000UL, 10000000UL, 100000000UL, 1000000000UL};
 
-// Parses an integer field: ["-"] 1*DIGIT within the kind's range. Returns false on any error.
-bool parse_int(const char* s, uint16_t n, FieldKind kind, int32_t* out) {
-  uint16_t i = 0;
-  bool negative = false;
-  if (n > 0 && s[0] == '-') {
-    negative = true;
-    i = 1;
-  }
-  if (i == n) return false;
-  uint32_t acc = 0;
-  for (; i < n; ++i) {
-    const char c = s[i];
-    if (!is_digit(c)) return false;
-    const uint32_t d = static_cast<uint32_t>(c - '0');
-    if (acc > 429496729UL || (acc == 429496729UL && d > 5)) return false;
-    acc = acc * 10u + d;
-  }
-  if (kind == kFieldU32) {
-    if (negative && acc != 0) return false;
-    *out = static_cast<int32_t>(acc);
-    return true;
-  }
-  if (negative) {
-    if (acc > 2147483648UL) return false;
-    *out = static_cast<int32_t>(0u - acc);
-  } else {
-    if (acc > 2147483647UL) return false;
-    *out = static_cast<int32_t>(acc);
-  }
-  return true;
-}
-
 // Checks a decimal field: ["-"] 1*DIGIT ["." 1*DIGIT], <= 9 significant integer digits and
 // <= 6 fraction digits.
 bool check_decimal(const char* s, uint16_t n) {
@@ -313,7 +281,9 @@ size_t Decoder::feed(const uint8_t* data, size_t length, Event* event) {
           mode_ = kLine;
           continue;
         }
-        if (finish_line(event)) return pos;
+        const uint16_t n = fill_;
+        fill_ = 0;
+        if (finish_line(buffer_, n, event)) return pos;
         continue;
       }
       if (mode_ == kDiscard) continue;
@@ -349,23 +319,32 @@ size_t Decoder::feed(const uint8_t* data, size_t length, Event* event) {
       fail(event, kErrLineTooLong, limit_ + 1, 0);
       return pos;
     }
+    if (nl && fill_ == 0) {
+      // the whole line is in the input: decode it in place.
+      pos = end + 1;
+      if (finish_line(reinterpret_cast<const char*>(data) + (end - chunk),
+                      static_cast<uint16_t>(chunk), event)) {
+        return pos;
+      }
+      continue;
+    }
     memcpy(buffer_ + fill_, data + pos, chunk);
     fill_ = static_cast<uint16_t>(fill_ + chunk);
     pos = end;
     if (nl) {
       ++pos;
-      if (finish_line(event)) return pos;
+      const uint16_t n = fill_;
+      fill_ = 0;
+      if (finish_line(buffer_, n, event)) return pos;
     }
   }
   return pos;
 }
 
-bool Decoder::finish_line(Event* event) {
-  uint16_t n = fill_;
-  fill_ = 0;
-  if (n > 0 && buffer_[n - 1] == '\r') --n;
+bool Decoder::finish_line(const char* s, uint16_t n, Event* event) {
+  if (n > 0 && s[n - 1] == '\r') --n;
   if (n == 0) return false;  // empty line: ignored
-  if (!validate(n, event)) return false;
+  validate(s, n, event);
   if (event->type == kEventPacket && (packet_.spec->flags & kCodeHasPayload)) {
     const int32_t bytes = packet_.value[0];
     if (bytes < 0) return fail(event, kErrBadNumber, 0, packet_.code);
@@ -381,63 +360,104 @@ bool Decoder::finish_line(Event* event) {
   return true;
 }
 
-// Validates the line buffer_[0, n) and fills packet_. Always produces an event; returns true.
-bool Decoder::validate(uint16_t n, Event* event) {
-  const char* s = buffer_;
+// Validates the line s[0, n) and fills packet_. Always produces an event; returns true.
+bool Decoder::validate(const char* s, uint16_t n, Event* event) {
   const char delim = link_->delimiter;
   packet_.line = s;
   packet_.line_length = n;
   packet_.field_count = 0;
-  // any byte that can never be in a packet.
-  for (uint16_t i = 0; i < n; ++i) {
+  const uint16_t head = n < 3 ? n : 3;
+  for (uint16_t i = 0; i < head; ++i) {
     if (!is_graphic(s[i])) return fail(event, kErrBadCharacter, i, 0);
   }
   if (n < 3 || !is_upper(s[0]) || !is_upper(s[1]) || s[2] != delim) {
     uint16_t bad = 0;
     if (is_upper(s[0])) bad = (n > 1 && is_upper(s[1])) ? 2 : 1;
+    // a byte that can never be in a packet is reported first.
+    for (uint16_t i = head; i < n; ++i) {
+      if (!is_graphic(s[i])) return fail(event, kErrBadCharacter, i, 0);
+    }
     return fail(event, kErrBadCharacter, bad, 0);
   }
   const uint16_t code = code_id(s[0], s[1]);
   const CodeSpec* spec = find_code(*link_, code);
-  if (spec == NULL) return fail(event, kErrUnknownCode, 0, code);
-  if (s[n - 1] != delim) return fail(event, kErrBadCharacter, n, code);
-  // split at the delimiters.
+  // split at the delimiters in one pass, checking for bytes that can never be in a packet
+  // and parsing integer fields on the way (the hot path: joint-state packets).
+  const uint8_t expected = spec != NULL ? spec->max_fields : 0;
+  const uint8_t no_bad_int = 0xff;
+  uint8_t bad_int = no_bad_int;  // first integer field that did not parse
   uint8_t count = 0;
-  uint16_t start = 3;
-  for (uint16_t i = 3; i < n; ++i) {
-    if (s[i] != delim) continue;
+  size_t i = 3;
+  while (i < n) {
+    const size_t start = i;
+    const FieldKind kind = count < expected ? field_kind(*spec, count) : kFieldText;
+    bool parsed = false;
+    if (kind == kFieldI32 || kind == kFieldU32) {
+      const bool negative = s[i] == '-';
+      if (negative) ++i;
+      const size_t digits_start = i;
+      uint32_t acc = 0;
+      bool overflow = false;
+      for (; i < n; ++i) {
+        const uint32_t d = static_cast<uint32_t>(static_cast<uint8_t>(s[i])) - '0';
+        if (d > 9) break;
+        if (acc > 429496729UL || (acc == 429496729UL && d > 5)) overflow = true;
+        acc = acc * 10u + d;
+      }
+      if (i < n && s[i] == delim && i > digits_start && !overflow) {
+        if (kind == kFieldU32) {
+          parsed = !negative || acc == 0;
+          packet_.value[count] = static_cast<int32_t>(acc);
+        } else if (negative) {
+          parsed = acc <= 2147483648UL;
+          packet_.value[count] = static_cast<int32_t>(0u - acc);
+        } else {
+          parsed = acc <= 2147483647UL;
+          packet_.value[count] = static_cast<int32_t>(acc);
+        }
+      }
+      if (!parsed && bad_int == no_bad_int) bad_int = count;
+    }
+    for (; i < n; ++i) {
+      const char c = s[i];
+      if (c == delim) break;
+      if (!is_graphic(c)) return fail(event, kErrBadCharacter, static_cast<int32_t>(i), 0);
+    }
+    if (i == n) break;  // no delimiter after the last field: reported below
     if (count < kMaxFields) {
-      packet_.field_offset[count] = start;
+      packet_.field_offset[count] = static_cast<uint16_t>(start);
       packet_.field_length[count] = static_cast<uint16_t>(i - start);
     }
     if (count < 255) ++count;
-    start = static_cast<uint16_t>(i + 1);
+    ++i;
   }
+  if (spec == NULL) return fail(event, kErrUnknownCode, 0, code);
+  if (s[n - 1] != delim) return fail(event, kErrBadCharacter, n, code);
   packet_.field_count = count < kMaxFields ? count : kMaxFields;
   if (count < spec->min_fields || count > spec->max_fields) {
     return fail(event, kErrWrongFieldCount, count, code);
   }
+  // the first bad field, in field order.
   for (uint8_t f = 0; f < count; ++f) {
+    const FieldKind kind = field_kind(*spec, f);
+    if (kind == kFieldI32 || kind == kFieldU32) {
+      if (f == bad_int) return fail(event, kErrBadNumber, f, code);
+      continue;
+    }
     const char* field = s + packet_.field_offset[f];
     const uint16_t len = packet_.field_length[f];
-    const FieldKind kind = field_kind(*spec, f);
-    if (kind == kFieldText) {
-      if (len == 0 || len > kMaxTextLength) {
-        const uint16_t at = len == 0 ? 0 : kMaxTextLength;
-        return fail(event, kErrBadCharacter, packet_.field_offset[f] + at, code);
-      }
-      for (uint16_t i = 0; i < len; ++i) {
-        if (!is_text_char(field[i])) {
-          return fail(event, kErrBadCharacter, packet_.field_offset[f] + i, code);
-        }
-      }
-      packet_.value[f] = 0;
-    } else if (kind == kFieldDec) {
+    packet_.value[f] = 0;
+    if (kind == kFieldDec) {
       if (!check_decimal(field, len)) return fail(event, kErrBadNumber, f, code);
-      packet_.value[f] = 0;
-    } else {
-      if (!parse_int(field, len, kind, &packet_.value[f])) {
-        return fail(event, kErrBadNumber, f, code);
+      continue;
+    }
+    if (len == 0 || len > kMaxTextLength) {
+      const uint16_t at = len == 0 ? 0 : kMaxTextLength;
+      return fail(event, kErrBadCharacter, packet_.field_offset[f] + at, code);
+    }
+    for (uint16_t k = 0; k < len; ++k) {
+      if (!is_text_char(field[k])) {
+        return fail(event, kErrBadCharacter, packet_.field_offset[f] + k, code);
       }
     }
   }

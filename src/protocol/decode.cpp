@@ -93,10 +93,16 @@ bool is_code_text(const Packet& p, std::uint8_t i) {
   return p.field_length[i] == 2 && s[0] >= 'A' && s[0] <= 'Z' && s[1] >= 'A' && s[1] <= 'Z';
 }
 
-template <typename Direction>
-Decoded<Direction> checked(std::optional<DecodeError>& error, Direction&& message) {
-  if (error) return std::move(*error);
-  return std::move(message);
+// The message, constructed in place (no temporary variant to move).
+template <typename Direction, typename T>
+Decoded<Direction> make(T&& message) {
+  return Decoded<Direction>(std::in_place_index<0>, std::forward<T>(message));
+}
+
+template <typename Direction, typename T>
+Decoded<Direction> checked(std::optional<DecodeError>& error, T&& message) {
+  if (error) return Decoded<Direction>(std::in_place_index<1>, std::move(*error));
+  return make<Direction>(std::forward<T>(message));
 }
 
 // replies shared by both links
@@ -104,11 +110,11 @@ template <typename Direction>
 Decoded<Direction> ack_or_error(const Packet& p) {
   if (p.code == code_id('A', 'K')) {
     if (!is_code_text(p, 0)) return bad_value(p, 0, "a two-letter upper-case code");
-    return Direction(Ack{field_text(p, 0), optional_field(p, 1)});
+    return make<Direction>(Ack{field_text(p, 0), optional_field(p, 1)});
   }
   std::optional<DecodeError> error;
   in_range(p, 0, 1, 255, &error);
-  return checked(error, Direction(ErrorReply{p.i32(0), optional_field(p, 1)}));
+  return checked<Direction>(error, ErrorReply{p.i32(0), optional_field(p, 1)});
 }
 
 PeerHello peer_hello(const Packet& p) {
@@ -122,19 +128,19 @@ Decoded<SerialToDevice> to_message(const Packet& p, SerialToDevice*) {
   std::optional<DecodeError> error;
   switch (p.code) {
     case code_id('H', 'I'):
-      return M(Hello{p.i32(0)});
+      return make<M>(Hello{p.i32(0)});
     case code_id('P', 'I'):
-      return M(Ping{optional_field(p, 0)});
+      return make<M>(Ping{optional_field(p, 0)});
     case code_id('S', 'R'):
       in_range(p, 0, 0, 1000, &error);
-      return checked(error, M(SetReportRate{p.i32(0)}));
+      return checked<M>(error, SetReportRate{p.i32(0)});
     case code_id('Q', 'S'):
-      return M(QueryState{});
+      return make<M>(QueryState{});
     case code_id('H', 'M'):
-      return M(Home{});
+      return make<M>(Home{});
     case code_id('T', 'B'):
       in_range(p, 0, 1, 65535, &error);
-      return checked(error, M(TrajectoryBegin{p.i32(0)}));
+      return checked<M>(error, TrajectoryBegin{p.i32(0)});
     case code_id('T', 'P'): {
       in_range(p, 0, 0, 65534, &error) && in_range(p, 1, 1, 65535, &error) &&
           in_range(p, 5, 0, 18000, &error) &&
@@ -145,22 +151,22 @@ Decoded<SerialToDevice> to_message(const Packet& p, SerialToDevice*) {
       t.steps = {p.i32(2), p.i32(3), p.i32(4)};
       t.wrist_rad = wire::cdeg_to_rad(p.i32(5));
       if (p.field_count == 7) t.grip_rad = wire::cdeg_to_rad(p.i32(6));
-      return checked(error, M(t));
+      return checked<M>(error, t);
     }
     case code_id('G', 'R'):
       in_range(p, 0, 0, 18000, &error);
-      return checked(error, M(SetGripper{wire::cdeg_to_rad(p.i32(0))}));
+      return checked<M>(error, SetGripper{wire::cdeg_to_rad(p.i32(0))});
     case code_id('J', 'G'): {
       in_range(p, 0, 0, 3, &error);
       const auto axis = static_cast<Axis>(p.i32(0));
       const double delta = axis == Axis::kWrist ? wire::cdeg_to_rad(p.i32(1)) : p.i32(1);
-      return checked(error, M(Jog{axis, delta}));
+      return checked<M>(error, Jog{axis, delta});
     }
     case code_id('S', 'P'):
-      return M(Stop{});
+      return make<M>(Stop{});
     case code_id('C', 'F'):
       in_range(p, 0, 1, 6, &error);
-      return checked(error, M(Config{p.i32(0), optional_field(p, 1)}));
+      return checked<M>(error, Config{p.i32(0), optional_field(p, 1)});
     default:
       break;
   }
@@ -172,7 +178,7 @@ Decoded<SerialFromDevice> to_message(const Packet& p, SerialFromDevice*) {
   std::optional<DecodeError> error;
   switch (p.code) {
     case code_id('H', 'I'):
-      return M(peer_hello(p));
+      return make<M>(peer_hello(p));
     case code_id('S', 'T'): {
       in_range(p, 0, 0, 65535, &error) && in_range(p, 7, 0, 0x7fffffff, &error) &&
           in_range(p, 8, 0, 65535, &error);
@@ -184,15 +190,15 @@ Decoded<SerialFromDevice> to_message(const Packet& p, SerialFromDevice*) {
       s.grip_rad = wire::cdeg_to_rad(p.i32(6));
       s.flags = p.u32(7);
       s.queue_free = p.i32(8);
-      return checked(error, M(s));
+      return checked<M>(error, s);
     }
     case code_id('A', 'K'):
     case code_id('E', 'R'):
       return ack_or_error<M>(p);
     case code_id('E', 'V'):
       in_range(p, 0, 1, 8, &error);
-      return checked(error,
-                     M(DeviceEvent{static_cast<DeviceEventCode>(p.i32(0)), optional_field(p, 1)}));
+      return checked<M>(error,
+                        DeviceEvent{static_cast<DeviceEventCode>(p.i32(0)), optional_field(p, 1)});
     default:
       break;
   }
@@ -204,47 +210,48 @@ Decoded<TcpToSim> to_message(const Packet& p, TcpToSim*) {
   std::optional<DecodeError> error;
   switch (p.code) {
     case code_id('H', 'I'):
-      return M(Hello{p.i32(0)});
+      return make<M>(Hello{p.i32(0)});
     case code_id('P', 'I'):
-      return M(Ping{optional_field(p, 0)});
+      return make<M>(Ping{optional_field(p, 0)});
     case code_id('J', 'D'):
     case code_id('T', 'J'): {
       in_range(p, 0, 0, 65535, &error);
       if (error) return std::move(*error);
-      if (p.code == code_id('J', 'D')) return M(JointData{seq_of(p, 0), p.u32(1), joints_of(p, 2)});
-      return M(JointTargets{seq_of(p, 0), p.u32(1), joints_of(p, 2)});
+      if (p.code == code_id('J', 'D'))
+        return make<M>(JointData{seq_of(p, 0), p.u32(1), joints_of(p, 2)});
+      return make<M>(JointTargets{seq_of(p, 0), p.u32(1), joints_of(p, 2)});
     }
     case code_id('M', 'D'): {
       SetMode m;
       if (!parse_mode(p, 0, &m.mode)) return bad_value(p, 0, "mirror, simulate");
-      return M(m);
+      return make<M>(m);
     }
     case code_id('G', 'R'):
       in_range(p, 0, 0, 1, &error);
-      return checked(error, M(Grasp{p.i32(0) == 1}));
+      return checked<M>(error, Grasp{p.i32(0) == 1});
     case code_id('C', 'S'):
       if (p.field_count == 1) {
         return DecodeError{core::kErrWrongFieldCount, 1,
                            "CS has 1 field; expects 0 or 2 (width_px, height_px)"};
       }
-      if (p.field_count == 0) return M(CameraShoot{});
+      if (p.field_count == 0) return make<M>(CameraShoot{});
       in_range(p, 0, 1, 8192, &error) && in_range(p, 1, 1, 8192, &error);
-      return checked(error, M(CameraShoot{p.i32(0), p.i32(1)}));
+      return checked<M>(error, CameraShoot{p.i32(0), p.i32(1)});
     case code_id('S', 'C'): {
       SpawnCube c;
       if (!parse_color_field(p, 0, &c.color)) return bad_value(p, 0, "red, green, blue");
       c.x_m = wire::mm_field_to_m(p, 1);
       c.y_m = wire::mm_field_to_m(p, 2);
-      return M(c);
+      return make<M>(c);
     }
     case code_id('R', 'S'):
-      return M(ResetScene{});
+      return make<M>(ResetScene{});
     case code_id('O', 'P'):
-      return M(QueryObjects{optional_field(p, 0)});
+      return make<M>(QueryObjects{optional_field(p, 0)});
     case code_id('Q', 'S'):
-      return M(QueryState{});
+      return make<M>(QueryState{});
     case code_id('S', 'P'):
-      return M(Stop{});
+      return make<M>(Stop{});
     default:
       break;
   }
@@ -256,13 +263,13 @@ Decoded<TcpFromSim> to_message(const Packet& p, TcpFromSim*) {
   std::optional<DecodeError> error;
   switch (p.code) {
     case code_id('H', 'I'):
-      return M(peer_hello(p));
+      return make<M>(peer_hello(p));
     case code_id('J', 'A'):
       in_range(p, 0, 0, 65535, &error);
-      return checked(error, M(JointApplied{seq_of(p, 0), p.u32(1)}));
+      return checked<M>(error, JointApplied{seq_of(p, 0), p.u32(1)});
     case code_id('G', 'R'):
       in_range(p, 0, 0, 1, &error) && in_range(p, 1, -1, 0x7fffffff, &error);
-      return checked(error, M(GripperState{p.i32(0) == 1, p.i32(1)}));
+      return checked<M>(error, GripperState{p.i32(0) == 1, p.i32(1)});
     case code_id('O', 'P'): {
       ObjectPose o;
       o.id = p.i32(0);
@@ -271,7 +278,7 @@ Decoded<TcpFromSim> to_message(const Packet& p, TcpFromSim*) {
       o.y_m = wire::mm_field_to_m(p, 3);
       o.z_m = wire::mm_field_to_m(p, 4);
       o.yaw_rad = wire::deg_field_to_rad(p, 5);
-      return M(o);
+      return make<M>(o);
     }
     case code_id('S', 'T'): {
       in_range(p, 0, 0, 65535, &error) && in_range(p, 6, 0, 1, &error) &&
@@ -283,12 +290,12 @@ Decoded<TcpFromSim> to_message(const Packet& p, TcpFromSim*) {
       s.grip_closed = p.i32(6) == 1;
       s.held_id = p.i32(7);
       if (!error && !parse_mode(p, 8, &s.mode)) return bad_value(p, 8, "mirror, simulate");
-      return checked(error, M(s));
+      return checked<M>(error, s);
     }
     case code_id('J', 'W'): {
       in_range(p, 0, 1, 4, &error);
       const double value = p.i32(0) == 1 ? wire::mm_field_to_m(p, 1) : wire::deg_field_to_rad(p, 1);
-      return checked(error, M(JointWarning{p.i32(0), value}));
+      return checked<M>(error, JointWarning{p.i32(0), value});
     }
     case code_id('A', 'K'):
     case code_id('E', 'R'):

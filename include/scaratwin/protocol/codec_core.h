@@ -126,7 +126,8 @@ extern const LinkSpec kTcpSimToHub;         // hub decodes this
 // The spec of `code` in `link`, or NULL when the link has no such code.
 const CodeSpec* find_code(const LinkSpec& link, uint16_t code);
 
-// A decoded packet. A view into the decoder's line buffer: valid until the next feed().
+// A decoded packet: a view into the decoder's line buffer or into the bytes given to feed(),
+// valid until the next feed() and while those bytes are.
 // After a kEventError for a complete line, `line`, `line_length`, `field_count` (at most
 // kMaxFields) and the field offsets and lengths describe the rejected line.
 struct Packet {
@@ -198,8 +199,8 @@ class Decoder {
 
  private:
   enum Mode : uint8_t { kLine, kDiscard, kPayload, kSkipPayload };
-  bool finish_line(Event* event);
-  bool validate(uint16_t n, Event* event);
+  bool finish_line(const char* line, uint16_t n, Event* event);
+  bool validate(const char* line, uint16_t n, Event* event);
   bool fail(Event* event, uint8_t error, int32_t detail, uint16_t code);
 
   const LinkSpec* link_;
