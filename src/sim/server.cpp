@@ -75,14 +75,14 @@ struct SimServer::Impl {
   void on(std::string& out, const proto::Ping& m) { put(out, proto::Ack{"PI", m.token}); }
   void on(std::string& out, const proto::JointData& m) {
     auto r = world.with_simulation([&](Simulation& s) { return s.set_joints(m.q); });
-    reply_joint(out, r, m.seq);
+    reply_joint(out, r, m.seq, m.t_us, m.q);
   }
   void on(std::string& out, const proto::JointTargets& m) {
     auto r = world.with_simulation([&](Simulation& s) { return s.hold(m.q); });
-    reply_joint(out, r, m.seq);
+    reply_joint(out, r, m.seq, m.t_us, m.q);
   }
-  void reply_joint(std::string& out, const Result<std::vector<JointWarning>>& r,
-                   std::uint16_t seq) {
+  void reply_joint(std::string& out, const Result<std::vector<JointWarning>>& r, std::uint16_t seq,
+                   std::uint32_t t_us, const JointVector& q) {
     if (!r) {
       error(out, r.error().code == static_cast<int>(SimError::kWrongMode) ? core::kErrBusy
                                                                           : core::kErrBadValue);
@@ -90,7 +90,9 @@ struct SimServer::Impl {
     }
     ++joint_frames;
     warnings(out, *r);
-    put(out, proto::JointApplied{seq, static_cast<std::uint32_t>(transport::steady_now_us())});
+    const std::int64_t applied_us = transport::steady_now_us();
+    if (options.on_joint_frame) options.on_joint_frame(JointFrame{seq, t_us, q, applied_us});
+    put(out, proto::JointApplied{seq, static_cast<std::uint32_t>(applied_us)});
   }
   void on(std::string& out, const proto::SetMode& m) {
     world.with_simulation([&](Simulation& s) {

@@ -13,6 +13,7 @@
 
 #include <atomic>
 #include <cstdint>
+#include <functional>
 #include <memory>
 #include <string>
 
@@ -26,10 +27,20 @@ class IoThread;
 
 namespace scaratwin::sim {
 
+// A joint frame (JD or TJ) as applied, for link figures (latency, lost frames).
+struct JointFrame {
+  std::uint16_t seq = 0;
+  std::uint32_t t_us = 0;       // the hub's sample time (its steady clock, mod 2^32)
+  JointVector q{};              // the values received (m, rad)
+  std::int64_t applied_us = 0;  // when applied (transport::steady_now_us(), the same clock)
+};
+
 struct ServerOptions {
   std::string bind_address = "127.0.0.1";
   std::uint16_t port = 55016;   // 0: an ephemeral port (see SimServer::port())
   std::string save_images_dir;  // if set, every shot is also saved there as shot_<n>.png
+  // Called on the io thread after every joint frame the simulation accepted (may be empty).
+  std::function<void(const JointFrame&)> on_joint_frame;
 };
 
 struct ServerCounters {
