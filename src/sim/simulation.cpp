@@ -240,11 +240,21 @@ Result<std::vector<JointWarning>> Simulation::set_joints(const JointVector& q) {
   auto warnings = note_limits(q);
   target_ = q;
   apply_mirror_pose();
-  if (held_ >= 0) {
-    mj_kinematics(m_, d_);
-    carry_held_cube();
+  // poses only (the next step computes the dynamics); a joint frame costs microseconds
+  struct Kin {
+    Simulation* s;
+    void operator()() {
+      mj_kinematics(s->m_, s->d_);
+      if (s->held_ >= 0) {
+        s->carry_held_cube();
+        mj_kinematics(s->m_, s->d_);
+      }
+    }
+  } kin{this};
+  if (Status st = detail::mj_guarded(static_cast<int>(SimError::kMujoco), "mj_kinematics", kin);
+      !st) {
+    return st.error();
   }
-  if (Status st = forward(); !st) return st.error();
   return warnings;
 }
 
@@ -400,7 +410,12 @@ Status Simulation::step(int n) {
         for (std::size_t k = 0; k < s->active_.size(); ++k) {
           if (!s->active_[k]) s->park(static_cast<int>(k));
         }
-        mj_kinematics(s->m_, s->d_);
+        // poses for the carried cube, the tool path and the callers; mj_step recomputes
+        // everything from qpos, so skipping this on other steps changes no result
+        const bool last = i + 1 == n;
+        const bool carry = s->held_ >= 0 && s->mode_ == Mode::kMirror;
+        const bool path_due = s->d_->time + 1e-12 >= s->next_path_s_;
+        if (last || carry || path_due) mj_kinematics(s->m_, s->d_);
         s->carry_held_cube();
         s->record_tool_path();
       }
