@@ -1,10 +1,16 @@
+#include <utility>  // before Boost.Asio (Boost 1.74 misses it)
+
 #include "scaratwin/transport/channel.hpp"
 
+#include <boost/asio/post.hpp>
+#include <boost/asio/steady_timer.hpp>
 #include <condition_variable>
 #include <deque>
 #include <mutex>
 #include <optional>
 #include <string>
+
+#include "scaratwin/transport/io_thread.hpp"
 
 namespace scaratwin::transport {
 
@@ -109,6 +115,36 @@ struct Channel<Out, In>::State {
   std::string last_decode_error;
   SequenceTracker tracker;
   StreamDecoder<In> decoder;  // io thread only
+  // Sweeps deadlines of posted requests while any wait (io thread only after creation).
+  std::shared_ptr<boost::asio::steady_timer> timer;
+  bool timer_armed = false;  // under the mutex
+  static constexpr std::chrono::milliseconds kSweepTick{10};
+
+  // Under the lock: makes sure the sweep timer runs while requests wait for replies.
+  void arm_sweep(const std::shared_ptr<State>& self) {
+    if (timer_armed || !timer) return;
+    timer_armed = true;
+    boost::asio::post(timer->get_executor(), [weak = std::weak_ptr<State>(self), t = timer] {
+      t->expires_after(kSweepTick);
+      t->async_wait([weak, t](const boost::system::error_code& ec) {
+        if (ec) return;
+        auto st = weak.lock();
+        if (!st) return;
+        std::vector<Completion> done;
+        {
+          std::lock_guard lock(st->mutex);
+          st->timer_armed = false;
+          st->sweep(steady_now_us(), done);
+          bool waiting = false;
+          for (auto* q : {&st->pending, &st->queued}) {
+            for (auto& e : *q) waiting = waiting || (!e->abandoned && e->handler);
+          }
+          if (waiting) st->arm_sweep(st);
+        }
+        run(done);
+      });
+    });
+  }
 
   bool fits(std::size_t size) const {
     return options.window_bytes == 0 || outstanding == 0 ||
@@ -306,6 +342,7 @@ Channel<Out, In>::Channel(Link& link, ChannelOptions options)
     : link_(link), state_(std::make_shared<State>()) {
   state_->link = &link;
   state_->options = options;
+  state_->timer = std::make_shared<boost::asio::steady_timer>(link.io_thread().context());
   link_.set_packet_handler([st = state_](RxPacket&& p) { st->on_packet(std::move(p)); });
   link_.set_state_handler([st = state_](LinkState s) { st->on_state(s); });
 }
@@ -318,6 +355,9 @@ Channel<Out, In>::~Channel() {
   {
     std::lock_guard lock(state_->mutex);
     state_->fail_all(core::kErrDisconnected, "failed: channel closed", done);
+    // the timer is cancelled and destroyed on the io thread, where its handler runs
+    auto timer = std::move(state_->timer);
+    boost::asio::post(timer->get_executor(), [timer] { timer->cancel(); });
   }
   State::run(done);
 }
@@ -332,6 +372,7 @@ Status Channel<Out, In>::post(const Out& message, ReplyHandler on_reply, Duratio
     std::lock_guard lock(state_->mutex);
     state_->sweep(steady_now_us(), done);
     status = state_->submit(*e);
+    if (status && (*e)->handler) state_->arm_sweep(state_);
   }
   State::run(done);
   return status;

@@ -347,5 +347,6 @@ LinkCounters Link::counters() const { return impl_->counters(); }
 void Link::add_lost_packets(std::uint64_t n) { impl_->add_lost(n); }
 void Link::add_error() { impl_->add_error(); }
 void Link::close() { impl_->close(); }
+IoThread& Link::io_thread() const { return impl_->io(); }
 
 }  // namespace scaratwin::transport

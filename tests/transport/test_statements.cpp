@@ -235,6 +235,26 @@ TEST(Channel, TimedOutRequestDoesNotShiftLaterReplies) {
   EXPECT_EQ(st.error().code, protocol::core::kErrTimeout);
 }
 
+TEST(Channel, PostedRequestGetsItsTimeoutWithoutFurtherTraffic) {
+  Rig rig;
+  ASSERT_TRUE(rig.up());
+  rig.sim.ignore_pings = true;
+  std::mutex m;
+  std::vector<int> codes;
+  const auto t0 = std::chrono::steady_clock::now();
+  ASSERT_TRUE(rig.simc->post(
+      protocol::Ping{9},
+      [&](Result<SimChannel::Reply>&& r) {
+        std::lock_guard lock(m);
+        codes.push_back(r ? 0 : r.error().code);
+      },
+      Duration{100}));
+  ASSERT_TRUE(eventually_size(m, codes, 1u));
+  EXPECT_GE(std::chrono::steady_clock::now() - t0, std::chrono::milliseconds(100));
+  std::lock_guard lock(m);
+  EXPECT_EQ(codes[0], protocol::core::kErrTimeout);
+}
+
 TEST(Channel, DisconnectFailsPendingRequestsAndUnsolicitedPacketsArrive) {
   Rig rig;
   ASSERT_TRUE(rig.up());

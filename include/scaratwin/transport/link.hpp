@@ -134,6 +134,9 @@ class Link {
   // Stops all I/O, drops the connection, wakes every waiter. Idempotent.
   void close();
 
+  // The io thread this link runs on (to run more work there, e.g. timers of a layer above).
+  IoThread& io_thread() const;
+
  protected:
   explicit Link(std::shared_ptr<detail::LinkImpl> impl);
   std::shared_ptr<detail::LinkImpl> impl_;
