@@ -6,6 +6,8 @@
 // (unplugged, emulator stopped) the link closes it and reopens the same path every
 // reconnect_min..reconnect_max until it is back.
 //
+// A device that is already talking when the port opens (the emulator, a board without the
+// auto-reset) can deliver a cut first line: the decoder reports it and resyncs at the newline.
 // Real boards reset when the port opens (1.5-2 s in the bootloader); wait for the firmware's
 // hello after every kConnected state change before sending commands.
 #pragma once
