@@ -145,26 +145,42 @@ const uint32_t kPow10[10] = {1UL,      10UL,      100UL,      1000UL,      10000
                              100000UL, 1000000UL, 10000000UL, 100000000UL, 1000000000UL};
 
 // Checks a decimal field: ["-"] 1*DIGIT ["." 1*DIGIT], <= 9 significant integer digits and
-// <= 6 fraction digits.
-bool check_decimal(const char* s, uint16_t n) {
+// <= 6 fraction digits. When the value in millionths fits an int32_t, stores it in *micro
+// and sets *fits.
+bool check_decimal(const char* s, uint16_t n, int32_t* micro, bool* fits) {
+  *fits = false;
   uint16_t i = 0;
-  if (n > 0 && s[0] == '-') i = 1;
+  const bool negative = n > 0 && s[0] == '-';
+  if (negative) i = 1;
   const uint16_t int_start = i;
   uint8_t significant = 0;
+  uint32_t whole = 0;
   for (; i < n && is_digit(s[i]); ++i) {
     if (significant > 0 || s[i] != '0') {
       if (++significant > 9) return false;
     }
+    whole = whole * 10u + static_cast<uint32_t>(s[i] - '0');
   }
   if (i == int_start) return false;
-  if (i == n) return true;
-  if (s[i] != '.') return false;
-  const uint16_t frac_start = ++i;
-  for (; i < n; ++i) {
-    if (!is_digit(s[i])) return false;
+  uint32_t frac = 0;
+  uint8_t frac_digits = 0;
+  if (i < n) {
+    if (s[i] != '.') return false;
+    for (++i; i < n; ++i) {
+      if (!is_digit(s[i]) || frac_digits == 6) return false;
+      frac = frac * 10u + static_cast<uint32_t>(s[i] - '0');
+      ++frac_digits;
+    }
+    if (frac_digits == 0) return false;
   }
-  const uint16_t frac = static_cast<uint16_t>(n - frac_start);
-  return frac >= 1 && frac <= 6;
+  if (whole <= 2147u) {
+    const uint32_t m = whole * kPow10[6] + frac * kPow10[6 - frac_digits];
+    if (m <= 2147483647UL) {
+      *micro = negative ? -static_cast<int32_t>(m) : static_cast<int32_t>(m);
+      *fits = true;
+    }
+  }
+  return true;
 }
 
 }  // namespace
@@ -366,6 +382,7 @@ bool Decoder::validate(const char* s, uint16_t n, Event* event) {
   packet_.line = s;
   packet_.line_length = n;
   packet_.field_count = 0;
+  packet_.micro_mask = 0;
   const uint16_t head = n < 3 ? n : 3;
   for (uint16_t i = 0; i < head; ++i) {
     if (!is_graphic(s[i])) return fail(event, kErrBadCharacter, i, 0);
@@ -448,7 +465,11 @@ bool Decoder::validate(const char* s, uint16_t n, Event* event) {
     const uint16_t len = packet_.field_length[f];
     packet_.value[f] = 0;
     if (kind == kFieldDec) {
-      if (!check_decimal(field, len)) return fail(event, kErrBadNumber, f, code);
+      bool fits = false;
+      if (!check_decimal(field, len, &packet_.value[f], &fits)) {
+        return fail(event, kErrBadNumber, f, code);
+      }
+      if (fits) packet_.micro_mask = static_cast<uint16_t>(packet_.micro_mask | (1u << f));
       continue;
     }
     if (len == 0 || len > kMaxTextLength) {

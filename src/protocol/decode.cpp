@@ -321,8 +321,10 @@ DecodeError to_error(const core::Event& ev, const core::LinkSpec& link, const Pa
       break;
     case core::kErrUnknownCode: {
       what = "unknown code " + code_text(ev.code) + " on the " + link_name + " link; valid:";
-      for (std::uint8_t i = 0; i < link.code_count; ++i)
-        what += " " + code_text(link.codes[i].code);
+      for (std::uint8_t i = 0; i < link.code_count; ++i) {
+        what += ' ';
+        what += code_text(link.codes[i].code);
+      }
       break;
     }
     case core::kErrWrongFieldCount: {

@@ -21,6 +21,7 @@ inline constexpr std::uint8_t kDegDecimals = 4;
 inline double decimal_field(const core::Packet& p, std::uint8_t i, int extra_decimals = 0) {
   static constexpr double kPow10[] = {1e0, 1e1, 1e2,  1e3,  1e4,  1e5,  1e6,  1e7,
                                       1e8, 1e9, 1e10, 1e11, 1e12, 1e13, 1e14, 1e15};
+  if ((p.micro_mask >> i) & 1u) return p.value[i] / kPow10[6 + extra_decimals];
   const char* s = p.text(i);
   const std::uint16_t n = p.field_length[i];
   std::uint16_t k = 0;

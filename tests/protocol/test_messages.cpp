@@ -2,6 +2,7 @@
 // chunking, SI conversion and value checks.
 #include <gtest/gtest.h>
 
+#include <cmath>
 #include <cstdlib>
 #include <fstream>
 #include <random>
@@ -139,6 +140,33 @@ TEST(ProtocolDecode, ConvertsToSi) {
   EXPECT_DOUBLE_EQ(state.grip_rad, deg_to_rad(-1));
   EXPECT_EQ(state.flags, 5u);
   EXPECT_EQ(state.queue_free, 8);
+}
+
+TEST(ProtocolDecode, DecimalsAreCorrectlyRoundedOnBothPaths) {
+  // small values take the millionths fast path, large ones the generic one; both must give
+  // mantissa / 10^(fraction digits + 3) in one rounding.
+  struct Case {
+    const char* text;
+    double mantissa;
+    int divisor_exp;
+  };
+  const Case cases[] = {{"2147.483647", 2147483647.0, 9},
+                        {"2147.483648", 2147483648.0, 9},
+                        {"-2147.483648", -2147483648.0, 9},
+                        {"0.1", 1.0, 4},
+                        {"-0.000001", -1.0, 9},
+                        {"999999999.999999", 999999999999999.0, 9},
+                        {"123456789", 123456789.0, 3},
+                        {"0007.5", 75.0, 4}};
+  for (const Case& c : cases) {
+    TcpToSimDecoder d;
+    const auto items = d.feed(std::string("SC,red,") + c.text + ",0,\n");
+    ASSERT_EQ(items.size(), 1u);
+    ASSERT_EQ(items[0].index(), 0u) << c.text;
+    EXPECT_EQ(std::get<SpawnCube>(std::get<0>(items[0])).x_m,
+              c.mantissa / std::pow(10.0, c.divisor_exp))
+        << c.text;
+  }
 }
 
 TEST(ProtocolDecode, ImageArrivesWholeWhateverTheChunking) {

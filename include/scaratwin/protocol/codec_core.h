@@ -138,7 +138,9 @@ struct Packet {
   uint16_t line_length;
   uint16_t field_offset[kMaxFields];  // start of field i in `line`
   uint16_t field_length[kMaxFields];  // length of field i (without the delimiter)
-  int32_t value[kMaxFields];          // parsed i32 fields; u32 fields as their bit pattern
+  int32_t value[kMaxFields];          // parsed i32 fields; u32 fields as their bit pattern;
+                                      // decimal fields in millionths when micro_mask says so
+  uint16_t micro_mask;                // bit i: decimal field i is value[i] / 1e6 exactly
 
   int32_t i32(uint8_t i) const { return value[i]; }
   uint32_t u32(uint8_t i) const { return static_cast<uint32_t>(value[i]); }
