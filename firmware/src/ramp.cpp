@@ -19,6 +19,7 @@ void AxisRamp::move_by(int32_t distance) {
   pos_ = pos_ - (float)emitted_;
   emitted_ = 0;
   target_ = distance;
+  arrived_ = false;
   mode_ = kPosition;
 }
 
@@ -26,6 +27,7 @@ void AxisRamp::run_at(float speed) {
   if (mode_ != kVelocity) {
     pos_ = pos_ - (float)emitted_;
     emitted_ = 0;
+    arrived_ = false;
   }
   v_target_ = speed;
   mode_ = kVelocity;
@@ -38,6 +40,7 @@ void AxisRamp::reset() {
   emitted_ = 0;
   target_ = 0;
   v_target_ = 0;
+  arrived_ = false;
 }
 
 int16_t AxisRamp::next(float dt_s, float max_speed, float accel) {
@@ -58,27 +61,32 @@ int16_t AxisRamp::next(float dt_s, float max_speed, float accel) {
     }
     return out;
   }
-  // position mode: the fastest speed from which the rest can still be stopped in
+  // position mode: the fastest speed from which the rest can still be stopped in, counted in
+  // whole intervals of dv less speed each (v, v - dv, ..., dv covers dt dv k (k + 1) / 2)
   float rest = (float)target_ - pos_;
   float sign = rest < 0 ? -1.0f : 1.0f;
-  float reach = sqrtf(2.0f * accel * (rest * sign));
+  float reach = 0.5f * dv * (sqrtf(1.0f + 8.0f * (rest * sign) / (dv * dt_s)) - 1.0f);
   float goal = sign * (reach < max_speed ? reach : max_speed);
   v_ = approach(v_, goal, dv);
   float step = v_ * dt_s;
-  if ((step * sign >= rest * sign) || (rest * sign < 0.5f && v_ * sign <= dv)) {
-    // arrives in this interval
-    pos_ = (float)target_;
+  if (arrived_) {
+    // the interval after arrival: the speed falls from its last value (<= dv) to rest
     v_ = 0;
     mode_ = kIdle;
+  } else if ((step * sign >= rest * sign) || (rest * sign < 0.5f && v_ * sign <= dv)) {
+    // arrives in this interval, at a speed no higher than v_
+    pos_ = (float)target_;
+    arrived_ = true;
   } else {
     pos_ += step;
   }
-  int32_t whole = mode_ == kIdle ? target_ : round_to_int(pos_);
+  int32_t whole = arrived_ ? target_ : round_to_int(pos_);
   int16_t out = (int16_t)(whole - emitted_);
   emitted_ = whole;
   if (mode_ == kIdle) {
     pos_ = 0;
     emitted_ = 0;
+    arrived_ = false;
   }
   return out;
 }

@@ -36,6 +36,7 @@ class AxisRamp {
   int32_t emitted_ = 0;  // whole steps handed out
   int32_t target_ = 0;   // position mode: total distance
   float v_target_ = 0;   // velocity mode: requested speed
+  bool arrived_ = false;  // position mode: on target, one interval left to come to rest
 };
 
 }  // namespace fw

@@ -112,7 +112,42 @@ void AvrMachine::watch_pin(char port, int bit, PinCallback cb) {
 }
 
 void AvrMachine::drive_pin(char port, int bit, bool level) {
+  Driven& d = driven_[port - 'B'];
+  const auto m = static_cast<std::uint8_t>(1u << bit);
+  d.mask = static_cast<std::uint8_t>(d.mask | m);
+  d.level = static_cast<std::uint8_t>(level ? (d.level | m) : (d.level & ~m));
+  if (!d.hooked) {
+    d.hooked = true;
+    auto* all = avr_io_getirq(avr_, AVR_IOCTL_IOPORT_GETIRQ(port), IOPORT_IRQ_PIN_ALL);
+    avr_irq_register_notify(all, &AvrMachine::port_write_hook, this);
+  }
   avr_raise_irq(avr_io_getirq(avr_, AVR_IOCTL_IOPORT_GETIRQ(port), bit), level ? 1 : 0);
+}
+
+void AvrMachine::port_write_hook(avr_irq_t* irq, std::uint32_t, void* param) {
+  auto* self = static_cast<AvrMachine*>(param);
+  // which port: compare with the PIN_ALL irq of each driven port
+  for (char port = 'B'; port <= 'D'; ++port) {
+    if (!self->driven_[port - 'B'].hooked) continue;
+    if (avr_io_getirq(self->avr_, AVR_IOCTL_IOPORT_GETIRQ(port), IOPORT_IRQ_PIN_ALL) == irq) {
+      self->reassert(port);
+    }
+  }
+}
+
+void AvrMachine::reassert(char port) {
+  if (reasserting_) return;
+  reasserting_ = true;
+  const Driven& d = driven_[port - 'B'];
+  for (int bit = 0; bit < 8; ++bit) {
+    if (!((d.mask >> bit) & 1)) continue;
+    avr_irq_t* pin = avr_io_getirq(avr_, AVR_IOCTL_IOPORT_GETIRQ(port), bit);
+    const std::uint32_t level = (d.level >> bit) & 1;
+    // toggle first: simavr ignores a raise to the value the irq already holds
+    avr_raise_irq(pin, level ^ 1u);
+    avr_raise_irq(pin, level);
+  }
+  reasserting_ = false;
 }
 
 void AvrMachine::on_uart_output(ByteCallback cb) { uart_out_ = std::move(cb); }

@@ -41,7 +41,9 @@ class AvrMachine {
 
   // Calls `cb` whenever the output level of pin `bit` of `port` ('B', 'C', 'D') changes.
   void watch_pin(char port, int bit, PinCallback cb);
-  // Drives an input pin from outside (a switch, a button).
+  // Drives an input pin from outside (a switch, a button). simavr 1.6 overwrites the input
+  // bits of a port's PIN register whenever the firmware writes that port's PORT register (a
+  // servo pulse on port C, say); the level is asserted again after every such write.
   void drive_pin(char port, int bit, bool level);
   // Every byte the firmware transmits on UART0.
   void on_uart_output(ByteCallback cb);
@@ -63,6 +65,8 @@ class AvrMachine {
   static void uart_out_hook(avr_irq_t* irq, std::uint32_t value, void* param);
   static void xon_hook(avr_irq_t* irq, std::uint32_t value, void* param);
   static void xoff_hook(avr_irq_t* irq, std::uint32_t value, void* param);
+  static void port_write_hook(avr_irq_t* irq, std::uint32_t value, void* param);
+  void reassert(char port);
 
   avr_t* avr_ = nullptr;
   elf_firmware_t* fw_ = nullptr;  // owned: simavr allocates its buffers, freed with it
@@ -72,6 +76,14 @@ class AvrMachine {
   std::deque<std::uint8_t> to_avr_;
   bool xoff_ = false;
   avr_irq_t* uart_in_ = nullptr;
+  // Input levels driven from outside, per port ('B', 'C', 'D'): bit mask and levels.
+  struct Driven {
+    std::uint8_t mask = 0;
+    std::uint8_t level = 0;
+    bool hooked = false;
+  };
+  Driven driven_[3];
+  bool reasserting_ = false;
 };
 
 }  // namespace scaratwin::robot

@@ -106,7 +106,7 @@ Result<std::unique_ptr<Emulator>> Emulator::create(const EmulatorOptions& option
     std::istringstream ls(s.command);
     std::string verb;
     ls >> verb;
-    static const char* kVerbs[] = {"press", "release", "cut", "lose", "corrupt", "query", "rate"};
+    static const char* kVerbs[] = {"press", "release", "cut", "lose", "corrupt", "query", "rate", "mark"};
     if (std::find_if(std::begin(kVerbs), std::end(kVerbs),
                      [&](const char* v) { return verb == v; }) == std::end(kVerbs)) {
       return Error{1, "scenario command '" + s.command +
@@ -184,7 +184,8 @@ std::string Emulator::truth_line() const {
   std::snprintf(buf, sizeof buf,
                 "TR wall_us=%llu mono_us=%llu sim_us=%llu z=%d j2=%d j3=%d wrist_cdeg=%d "
                 "grip_cdeg=%d endstops=%u buttons=%u steps_z=%llu steps_j2=%llu steps_j3=%llu "
-                "last_step_sim_us=%llu last_rx_sim_us=%llu",
+                "last_step_sim_us=%llu last_rx_sim_us=%llu span_z=%llu:%llu span_j2=%llu:%llu "
+                "span_j3=%llu:%llu",
                 static_cast<unsigned long long>(clock_us(CLOCK_REALTIME)),
                 static_cast<unsigned long long>(clock_us(CLOCK_MONOTONIC)),
                 static_cast<unsigned long long>(avr_->sim_us()), s[0], s[1], s[2],
@@ -193,7 +194,13 @@ std::string Emulator::truth_line() const {
                 static_cast<unsigned long long>(mech_.step_count(1)),
                 static_cast<unsigned long long>(mech_.step_count(2)),
                 static_cast<unsigned long long>(mech_.last_step_sim_us()),
-                static_cast<unsigned long long>(last_rx_sim_us_));
+                static_cast<unsigned long long>(last_rx_sim_us_),
+                static_cast<unsigned long long>(mech_.first_step_us(0)),
+                static_cast<unsigned long long>(mech_.last_step_us(0)),
+                static_cast<unsigned long long>(mech_.first_step_us(1)),
+                static_cast<unsigned long long>(mech_.last_step_us(1)),
+                static_cast<unsigned long long>(mech_.first_step_us(2)),
+                static_cast<unsigned long long>(mech_.last_step_us(2)));
   return buf;
 }
 
@@ -203,6 +210,10 @@ std::string Emulator::command(const std::string& line, int client) {
   in >> verb;
   const double now_s = avr_->sim_seconds();
   if (verb == "query") return truth_line();
+  if (verb == "mark") {
+    mech_.mark();
+    return "OK mark";
+  }
   if (verb == "rate") {
     double hz = -1;
     if (!(in >> hz) || hz < 0 || hz > 10000) return "ERR rate needs 0..10000 Hz";
@@ -246,7 +257,7 @@ std::string Emulator::command(const std::string& line, int client) {
     (dir == "rx" ? corrupt_rx_ : corrupt_tx_) += static_cast<std::uint32_t>(n);
     return "OK " + line;
   }
-  return "ERR unknown command '" + verb + "': use query, rate, press, release, cut, lose, corrupt";
+  return "ERR unknown command '" + verb + "': use query, rate, mark, press, release, cut, lose, corrupt";
 }
 
 Status Emulator::run(const volatile bool& stop) {

@@ -8,6 +8,7 @@
 // Copyright the scaratwin authors. This program links libsimavr (GPL-3.0) and is
 // distributed under the GNU General Public License, version 3 or later; the rest of
 // scaratwin is Apache-2.0 and does not link it.
+#include <sys/prctl.h>
 #include <unistd.h>
 
 #include <cmath>
@@ -71,7 +72,11 @@ int main(int argc, char** argv) {
                  "(default: the home pose)")
       ->delimiter(',')
       ->expected(3);
+  bool exit_with_parent = false;
+  app.add_flag("--exit-with-parent", exit_with_parent,
+               "terminate when the process that started the emulator dies (tests)");
   CLI11_PARSE(app, argc, argv);
+  if (exit_with_parent) ::prctl(PR_SET_PDEATHSIG, SIGTERM);
 
   auto model = load_robot_config_or_default(config_path);
   if (!model) {

@@ -17,6 +17,8 @@ void Mechanics::on_step(int axis, bool high, std::uint64_t sim_us) {
   if (!rising) return;
   ++step_count_[axis];
   last_step_us_ = sim_us;
+  if (first_us_[axis] == 0) first_us_[axis] = sim_us;
+  last_us_[axis] = sim_us;
   if (to_lose_[axis] > 0) {
     --to_lose_[axis];
     return;

@@ -53,6 +53,13 @@ class Mechanics {
   double servo_pulse_us(int servo) const { return pulse_us_[servo]; }
   std::uint64_t last_step_sim_us() const { return last_step_us_; }
   std::uint64_t step_count(int axis) const { return step_count_[axis]; }
+  // Emulated times (us) of each axis's first and last STEP pulse since mark() (0 = none).
+  void mark() {
+    first_us_ = {};
+    last_us_ = {};
+  }
+  std::uint64_t first_step_us(int axis) const { return first_us_[axis]; }
+  std::uint64_t last_step_us(int axis) const { return last_us_[axis]; }
 
  private:
   MechanicsConfig config_;
@@ -62,6 +69,8 @@ class Mechanics {
   std::array<std::int32_t, kAxes> to_lose_{};
   std::array<std::uint64_t, kAxes> step_count_{};
   std::uint64_t last_step_us_ = 0;
+  std::array<std::uint64_t, kAxes> first_us_{};
+  std::array<std::uint64_t, kAxes> last_us_{};
   std::array<std::uint64_t, 2> rise_cycle_{};
   std::array<bool, 2> servo_level_{};
   std::array<std::int32_t, 2> servo_cdeg_{-1, -1};

@@ -6,12 +6,13 @@
 //   TR wall_us=<CLOCK_REALTIME us> mono_us=<CLOCK_MONOTONIC us> sim_us=<emulated time us>
 //      z=<steps> j2=<steps> j3=<steps> wrist_cdeg=<c> grip_cdeg=<c> endstops=<mask>
 //      buttons=<mask> steps_z=<n> steps_j2=<n> steps_j3=<n> last_step_sim_us=<us>
-//      last_rx_sim_us=<us>
+//      last_rx_sim_us=<us> span_z=<first_us>:<last_us> span_j2=... span_j3=...
 // (one line; z/j2/j3 are the true motor positions counted from the STEP/DIR pins; steps_* the
 // STEP pulses seen, including lost ones; last_rx_sim_us the emulated time at which the last
-// byte from the host entered the firmware's UART.)
+// byte from the host entered the firmware's UART; span_* the emulated times of each axis's
+// first and last STEP pulse since the last `mark`, 0:0 when none.)
 // Client -> emulator, one command per line, answered "OK <command>" or "ERR <reason>":
-//   query | rate <hz> | press <button> [ms] | release <button> | cut <ms> |
+//   query | rate <hz> | mark | press <button> [ms] | release <button> | cut <ms> |
 //   lose <z|j2|j3> <steps> | corrupt <n> [rx|tx]
 // Buttons: z+ z- j2+ j2- j3+ j3-. The same commands, each prefixed with an emulated time in
 // ms, make up a scenario file (--scenario).

@@ -1,0 +1,309 @@
+// End-to-end tests of the physical-robot layer: the real firmware ELF runs in the emulator,
+// and the tests talk to it through the pty exactly as the hub talks to a board, checking the
+// firmware's replies against the truth the emulator counts on the STEP/DIR pins. Functional
+// tests run unpaced (--speed 0); every time they check is the emulated time (the firmware's
+// t_us or the emulator's sim_us), so the result does not depend on the machine's speed.
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <array>
+#include <chrono>
+#include <optional>
+#include <cmath>
+#include <string>
+#include <vector>
+
+#include "robot_harness.hpp"
+#include "scaratwin/config/robot_config.hpp"
+#include "scaratwin/kinematics/motor.hpp"
+#include "scaratwin/trajectory/trajectory.hpp"
+
+namespace scaratwin::test {
+namespace {
+
+struct Point {
+  int dt_ms;
+  std::array<std::int32_t, 3> steps;
+  int wrist_cdeg;
+};
+
+// A quintic from the home pose to `goal`, as the hub would load it: 60 samples, absolute motor
+// steps, dt in whole ms.
+std::vector<Point> plan_points(const JointVector& goal, double duration_s) {
+  auto model = load_robot_config_or_default("");
+  EXPECT_TRUE(model.ok());
+  QuinticOptions o;
+  o.duration_s = duration_s;
+  auto traj = plan_quintic(*model, model->home, goal, o);
+  if (!traj.ok()) {
+    ADD_FAILURE() << traj.error().message;
+    return {};
+  }
+  std::vector<Point> pts;
+  long prev_ms = 0;
+  for (std::size_t k = 1; k < traj->samples.size(); ++k) {
+    const auto& s = traj->samples[k];
+    const long t_ms = std::lround(s.t_s * 1000.0);
+    pts.push_back({static_cast<int>(t_ms - prev_ms), joints_to_steps(*model, s.q),
+                   static_cast<int>(std::lround(s.q[3] * 18000.0 / M_PI))});
+    prev_ms = t_ms;
+  }
+  return pts;
+}
+
+std::string tp(int seq, const Point& p) {
+  return "TP=" + std::to_string(seq) + "=" + std::to_string(p.dt_ms) + "=" +
+         std::to_string(p.steps[0]) + "=" + std::to_string(p.steps[1]) + "=" +
+         std::to_string(p.steps[2]) + "=" + std::to_string(p.wrist_cdeg) + "=\n";
+}
+
+// Loads a trajectory with credit-based flow control, as the hub does: the credit is the free
+// queue slots of the latest AK=TP or ST report, minus the points sent since; one TP line is in
+// flight at a time, which keeps within the 64-byte receive window. Fails on any refusal.
+bool load_trajectory(Robot& r, const std::vector<Point>& pts, int* acks = nullptr) {
+  auto tb = r.request("TB=" + std::to_string(pts.size()) + "=\n");
+  if (!tb || tb->rfind("AK=TB=", 0) != 0) {
+    ADD_FAILURE() << "TB refused: " << tb.value_or("timeout");
+    return false;
+  }
+  int credit = std::atoi(tb->c_str() + 6);
+  bool in_flight = false;
+  int ok = 0;
+  std::size_t next = 0;
+  while (ok < static_cast<int>(pts.size())) {
+    if (!in_flight && next < pts.size() && credit > 0) {
+      r.send(tp(static_cast<int>(next), pts[next]));
+      ++next;
+      in_flight = true;
+    }
+    auto l = r.line(30.0, true);
+    if (!l) {
+      ADD_FAILURE() << "no reply while loading point " << ok;
+      return false;
+    }
+    if (auto st = parse_report(*l)) {
+      if (!in_flight) credit = static_cast<int>(st->queue_free());
+    } else if (l->rfind("AK=TP=", 0) == 0) {
+      ++ok;
+      in_flight = false;
+      credit = std::atoi(l->c_str() + 6);
+    } else if (l->rfind("EV=", 0) == 0) {
+      continue;  // underrun or other events while streaming
+    } else {
+      ADD_FAILURE() << "point " << ok << " refused: " << *l;
+      return false;
+    }
+  }
+  if (acks) *acks = ok;
+  return true;
+}
+
+class RobotTest : public ::testing::Test {
+ protected:
+  void SetUp() override { ASSERT_TRUE(robot.ok()) << robot.error(); }
+  Robot robot;
+};
+
+TEST_F(RobotTest, SaysHelloWithVersion) {
+  EXPECT_EQ(robot.request("HI=1=\n").value_or(""), "HI=1=scara-uno=0.1.0=");
+  EXPECT_EQ(robot.request("HI=2=\n").value_or(""), "ER=13=1=");  // unsupported version
+  EXPECT_EQ(robot.request("PI=7=\n").value_or(""), "AK=PI=7=");
+}
+
+TEST_F(RobotTest, HomingFindsTheSwitchesAndEndsAtTheHomePose) {
+  ASSERT_TRUE(robot.home());
+  const Truth t = robot.truth();
+  EXPECT_EQ(t.i("z"), 24667);
+  EXPECT_EQ(t.i("j2"), 0);
+  EXPECT_EQ(t.i("j3"), 0);
+  auto st = robot.query_state();
+  ASSERT_TRUE(st);
+  EXPECT_EQ(st->z(), 24667);
+  EXPECT_EQ(st->j2(), 0);
+  EXPECT_EQ(st->j3(), 0);
+  EXPECT_EQ(st->flags() & 1, 1) << "homed flag";
+}
+
+TEST_F(RobotTest, TrajectoryEndsAtThePlannedStepsWithAllJointsTogether) {
+  ASSERT_TRUE(robot.home());
+  const auto pts = plan_points({0.10, 0.8, -0.6, 0.5}, 5.0);
+  ASSERT_EQ(pts.size(), 59u);
+  ASSERT_TRUE(load_trajectory(robot, pts));
+  // Together: the quintic moves every joint along the same normalised profile, so at any
+  // instant each axis must have covered the same fraction of its travel, within the whole-step
+  // quantisation of each axis. Sample the truth until the trajectory is done.
+  const std::array<double, 3> from{24667, 0, 0};
+  std::array<double, 3> travel{};
+  for (int i = 0; i < 3; ++i) travel[i] = pts.back().steps[i] - from[i];
+  double worst = 0, allowed = 0.002;
+  for (double t : travel) allowed += 1.0 / std::fabs(t);
+  int samples_moving = 0;
+  std::optional<std::string> done;
+  while (!done) {
+    const Truth t = robot.truth();
+    const std::array<double, 3> pos{static_cast<double>(t.i("z")), static_cast<double>(t.i("j2")),
+                                    static_cast<double>(t.i("j3"))};
+    std::array<double, 3> frac{};
+    for (int i = 0; i < 3; ++i) frac[i] = (pos[i] - from[i]) / travel[i];
+    const double spread = *std::max_element(frac.begin(), frac.end()) -
+                          *std::min_element(frac.begin(), frac.end());
+    worst = std::max(worst, spread);
+    if (frac[0] > 0.05 && frac[0] < 0.95) ++samples_moving;
+    done = robot.line(0.01);
+    if (done && done->rfind("EV=3=", 0) != 0) done.reset();
+  }
+  EXPECT_EQ(*done, "EV=3=59=");
+  EXPECT_LE(worst, allowed) << "the axes drifted apart";
+  EXPECT_GT(samples_moving, 5) << "too few samples during the motion to judge";
+  const Truth t = robot.truth();
+  EXPECT_EQ(t.i("z"), pts.back().steps[0]);
+  EXPECT_EQ(t.i("j2"), pts.back().steps[1]);
+  EXPECT_EQ(t.i("j3"), pts.back().steps[2]);
+  auto st = robot.query_state();
+  ASSERT_TRUE(st);
+  EXPECT_EQ(st->z(), pts.back().steps[0]);
+  EXPECT_EQ(st->j2(), pts.back().steps[1]);
+  EXPECT_EQ(st->j3(), pts.back().steps[2]);
+}
+
+TEST_F(RobotTest, JogButtonsMoveTheMotorsAndTheReportsShowIt) {
+  const Truth before = robot.truth();
+  ASSERT_EQ(robot.side("press j2+ 400"), "OK press j2+ 400");
+  auto ev = robot.wait_for("EV=4=", 10.0);
+  ASSERT_TRUE(ev);
+  EXPECT_EQ(*ev, "EV=4=2=");  // button 2 = J2+
+  // wait until the motion has ended (released, ramped down)
+  for (int i = 0; i < 200; ++i) {
+    auto st = robot.query_state();
+    ASSERT_TRUE(st);
+    if ((st->flags() & 2) == 0 && st->j2() > 0) break;
+  }
+  const Truth after = robot.truth();
+  EXPECT_GT(after.i("j2") - before.i("j2"), 100) << "J2 moved while the button was held";
+  EXPECT_EQ(after.i("z"), before.i("z"));
+  auto st = robot.query_state();
+  ASSERT_TRUE(st);
+  EXPECT_EQ(st->j2(), after.i("j2")) << "the report shows the true J2 position";
+  ASSERT_EQ(robot.side("press z- 300"), "OK press z- 300");
+  ASSERT_TRUE(robot.wait_for("EV=4=1=", 10.0));
+}
+
+TEST_F(RobotTest, StopHaltsMotionWithinTenMilliseconds) {
+  ASSERT_EQ(robot.request("JG=1=3000=\n").value_or(""), "AK=JG=");
+  // wait until J2 runs at speed
+  const auto t0 = std::chrono::steady_clock::now();
+  while (robot.truth().i("j2") < 800 &&
+         std::chrono::steady_clock::now() - t0 < std::chrono::seconds(30)) {
+  }
+  ASSERT_GE(robot.truth().i("j2"), 800);
+  robot.send("!");
+  ASSERT_TRUE(robot.wait_for("EV=6=", 10.0));
+  const Truth t = robot.truth();
+  const auto stop_rx = t.u("last_rx_sim_us");
+  const auto last_step = t.u("last_step_sim_us");
+  EXPECT_LT(t.i("j2"), 3000) << "stopped before the end of the jog";
+  EXPECT_LE(last_step, stop_rx + 10000) << "last step " << last_step - stop_rx
+                                        << " us after the stop byte";
+  auto st = robot.query_state();
+  ASSERT_TRUE(st);
+  EXPECT_EQ(st->j2(), t.i("j2"));
+  EXPECT_EQ(st->flags() & 16, 16) << "halted flag";
+  EXPECT_EQ(robot.request("JG=1=10=\n").value_or(""), "ER=14=") << "motion refused when halted";
+  robot.send("~");
+  EXPECT_TRUE(robot.wait_for("EV=8=", 10.0));
+  EXPECT_EQ(robot.request("JG=1=10=\n").value_or(""), "AK=JG=");
+}
+
+TEST_F(RobotTest, EveryMalformedPacketGetsAnErrorAndTheFirmwareKeepsWorking) {
+  const std::vector<std::pair<std::string, std::string>> cases = {
+      {"XX=\n", "ER=3="},                          // unknown code
+      {"SR=1=2=\n", "ER=4=2="},                    // too many fields
+      {"TP=1=\n", "ER=4=1="},                      // too few fields
+      {"SR=abc=\n", "ER="},                        // not a number
+      {"SR=99999999999=\n", "ER=5=0="},            // out of i32 range
+      {"SR=5000=\n", "ER=11=0="},                  // rate out of range
+      {"sr=1=\n", "ER="},                          // lower-case code
+      {"SR=1\n", "ER="},                           // no delimiter after the last field
+      {"SR==\n", "ER="},                           // empty field
+      {"JG=7=10=\n", "ER=11=0="},                  // no axis 7
+      {"CF=99=\n", "ER=11=0="},                    // unknown setting
+      {"TP=0=100=1=2=3=4=\n", "ER=10=0="},         // TP without TB
+      {"TB=1=\n", "ER=7="},                        // not homed
+      {std::string(120, 'A') + "\n", "ER=1=96="},  // line too long
+      {"\x01\x02=\n", "ER=2="},                    // control characters
+  };
+  for (const auto& [bad, want] : cases) {
+    auto reply = robot.request(bad);
+    ASSERT_TRUE(reply) << "no reply to " << bad;
+    EXPECT_EQ(reply->rfind(want, 0), 0u) << "reply to '" << bad << "' was " << *reply;
+    EXPECT_EQ(robot.request("PI=1=\n").value_or(""), "AK=PI=1=") << "after " << bad;
+  }
+  // bytes corrupted on the line (emulator fault injection) also get an error reply
+  ASSERT_EQ(robot.side("corrupt 2 rx"), "OK corrupt 2 rx");
+  auto reply = robot.request("PI=5=\n");
+  ASSERT_TRUE(reply);
+  EXPECT_EQ(reply->rfind("ER=", 0), 0u) << *reply;
+  EXPECT_EQ(robot.request("PI=6=\n").value_or(""), "AK=PI=6=");
+}
+
+TEST_F(RobotTest, SixHundredPointsStreamThroughFlowControlWithoutOverflow) {
+  ASSERT_TRUE(robot.home());
+  // a slow sine on J2 and Z, 20 ms per point: 12 s of motion, far more than the queue holds
+  std::vector<Point> pts;
+  for (int k = 1; k <= 600; ++k) {
+    const double s = std::sin(2.0 * M_PI * k / 600.0);
+    const double s2 = std::sin(M_PI * k / 600.0);
+    pts.push_back({20,
+                   {24667 - static_cast<std::int32_t>(std::lround(2000 * s2 * s2)),
+                    static_cast<std::int32_t>(std::lround(300 * s * s2)), 0},
+                   0});
+  }
+  int acks = 0;
+  ASSERT_TRUE(load_trajectory(robot, pts, &acks));
+  EXPECT_EQ(acks, 600);
+  std::vector<std::string> skipped;
+  auto done = robot.wait_for("EV=3=", 60.0, &skipped);
+  ASSERT_TRUE(done);
+  EXPECT_EQ(*done, "EV=3=600=");
+  for (const auto& l : skipped) EXPECT_NE(l.rfind("ER=", 0), 0u) << l;
+  const Truth t = robot.truth();
+  EXPECT_EQ(t.i("z"), pts.back().steps[0]);
+  EXPECT_EQ(t.i("j2"), pts.back().steps[1]);
+}
+
+TEST_F(RobotTest, FaultsLostStepsAndACutLinkAreVisible) {
+  ASSERT_EQ(robot.side("lose j2 5"), "OK lose j2 5");
+  ASSERT_EQ(robot.request("JG=1=200=\n").value_or(""), "AK=JG=");
+  for (int i = 0; i < 200; ++i) {
+    auto st = robot.query_state();
+    ASSERT_TRUE(st);
+    if (st->j2() == 200 && (st->flags() & 2) == 0) break;
+  }
+  EXPECT_EQ(robot.truth().i("j2"), 195) << "the slipping belt lost 5 of 200 steps";
+  const auto cut_at_us = robot.truth().u("sim_us");
+  ASSERT_EQ(robot.side("cut 300"), "OK cut 300");
+  robot.send("PI=9=\n");
+  EXPECT_FALSE(robot.line(0.2).has_value()) << "no reply through a cut link";
+  // the bytes sent during the cut are lost: wait for its end (emulated time), then talk again
+  while (robot.truth().u("sim_us") < cut_at_us + 350000) {
+  }
+  EXPECT_EQ(robot.request("PI=10=\n", 20.0).value_or(""), "AK=PI=10=") << "link back";
+}
+
+TEST_F(RobotTest, ReportsCarryConsecutiveSequenceNumbersAtTheConfiguredRate) {
+  ASSERT_EQ(robot.request("SR=200=\n").value_or(""), "AK=SR=200=");
+  std::vector<Report> reps;
+  while (reps.size() < 1000) {
+    auto l = robot.line(10.0, true);
+    ASSERT_TRUE(l);
+    if (auto r = parse_report(*l)) reps.push_back(*r);
+  }
+  for (std::size_t k = 1; k < reps.size(); ++k) {
+    ASSERT_EQ((reps[k].seq() - reps[k - 1].seq() + 65536) % 65536, 1) << "gap at " << k;
+  }
+  const double span_s = static_cast<std::uint32_t>(reps.back().t_us() - reps.front().t_us()) / 1e6;
+  EXPECT_NEAR(static_cast<double>(reps.size() - 1) / span_s, 200.0, 1.0);
+}
+
+}  // namespace
+}  // namespace scaratwin::test

@@ -1,0 +1,38 @@
+// Soak test (ctest label `soak`): state reports at the default 100 Hz for 60 s of real time,
+// paced to the wall clock, through the pty: no sequence gap, the rate right in the device's
+// time and in the host's wall-clock time.
+#include <gtest/gtest.h>
+
+#include <chrono>
+
+#include "robot_harness.hpp"
+
+namespace scaratwin::test {
+namespace {
+
+TEST(RobotSoak, ReportsAtOneHundredHertzWithoutAGapForSixtySeconds) {
+  Robot robot({"--speed", "1"});
+  ASSERT_TRUE(robot.ok()) << robot.error();
+  ASSERT_EQ(robot.request("SR=100=\n").value_or(""), "AK=SR=100=");
+  const auto start = std::chrono::steady_clock::now();
+  std::vector<Report> reps;
+  int gaps = 0;
+  while (std::chrono::steady_clock::now() - start < std::chrono::seconds(60)) {
+    auto l = robot.line(5.0, true);
+    ASSERT_TRUE(l) << "reports stopped";
+    auto r = parse_report(*l);
+    if (!r) continue;
+    if (!reps.empty() && (r->seq() - reps.back().seq() + 65536) % 65536 != 1) ++gaps;
+    reps.push_back(*r);
+  }
+  const double wall_s =
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  EXPECT_EQ(gaps, 0);
+  ASSERT_GT(reps.size(), 100u);
+  const double dev_s = static_cast<std::uint32_t>(reps.back().t_us() - reps.front().t_us()) / 1e6;
+  EXPECT_NEAR(static_cast<double>(reps.size() - 1) / dev_s, 100.0, 0.5) << "device time";
+  EXPECT_NEAR(static_cast<double>(reps.size()) / wall_s, 100.0, 3.0) << "wall-clock time";
+}
+
+}  // namespace
+}  // namespace scaratwin::test
