@@ -31,11 +31,11 @@ class AxisRamp {
 
  private:
   Mode mode_ = kIdle;
-  float v_ = 0;          // steps/s
-  float pos_ = 0;        // steps travelled since the move began (fractional)
-  int32_t emitted_ = 0;  // whole steps handed out
-  int32_t target_ = 0;   // position mode: total distance
-  float v_target_ = 0;   // velocity mode: requested speed
+  float v_ = 0;           // steps/s
+  float pos_ = 0;         // steps travelled since the move began (fractional)
+  int32_t emitted_ = 0;   // whole steps handed out
+  int32_t target_ = 0;    // position mode: total distance
+  float v_target_ = 0;    // velocity mode: requested speed
   bool arrived_ = false;  // position mode: on target, one interval left to come to rest
 };
 

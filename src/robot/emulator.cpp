@@ -106,7 +106,8 @@ Result<std::unique_ptr<Emulator>> Emulator::create(const EmulatorOptions& option
     std::istringstream ls(s.command);
     std::string verb;
     ls >> verb;
-    static const char* kVerbs[] = {"press", "release", "cut", "lose", "corrupt", "query", "rate", "mark"};
+    static const char* kVerbs[] = {"press",   "release", "cut",  "lose",
+                                   "corrupt", "query",   "rate", "mark"};
     if (std::find_if(std::begin(kVerbs), std::end(kVerbs),
                      [&](const char* v) { return verb == v; }) == std::end(kVerbs)) {
       return Error{1, "scenario command '" + s.command +
@@ -257,7 +258,8 @@ std::string Emulator::command(const std::string& line, int client) {
     (dir == "rx" ? corrupt_rx_ : corrupt_tx_) += static_cast<std::uint32_t>(n);
     return "OK " + line;
   }
-  return "ERR unknown command '" + verb + "': use query, rate, mark, press, release, cut, lose, corrupt";
+  return "ERR unknown command '" + verb +
+         "': use query, rate, mark, press, release, cut, lose, corrupt";
 }
 
 Status Emulator::run(const volatile bool& stop) {

@@ -21,8 +21,7 @@ namespace scaratwin::test {
 namespace {
 
 double now_s() {
-  return std::chrono::duration<double>(std::chrono::steady_clock::now().time_since_epoch())
-      .count();
+  return std::chrono::duration<double>(std::chrono::steady_clock::now().time_since_epoch()).count();
 }
 
 // Reads one '\n'-terminated line from fd into buf (non-blocking fd), waiting up to timeout.
@@ -88,7 +87,7 @@ Robot::Robot(const std::vector<std::string>& args) {
   posix_spawn_file_actions_adddup2(&fa, out[1], 1);
   posix_spawn_file_actions_addclose(&fa, out[0]);
   std::vector<std::string> argv_s{SCARATWIN_ROBOT_EXE, "--firmware", SCARATWIN_FIRMWARE_ELF,
-                                    "--exit-with-parent"};
+                                  "--exit-with-parent"};
   argv_s.insert(argv_s.end(), args.begin(), args.end());
   std::vector<char*> argv;
   for (auto& s : argv_s) argv.push_back(s.data());
@@ -138,8 +137,14 @@ Robot::Robot(const std::vector<std::string>& args) {
     error_ = "side channel does not answer";
     return;
   }
-  // the firmware says hello once after reset; a host may also ask
-  if (!wait_for("HI=", 30.0)) {
+  // the firmware says hello once after reset, maybe before the flush above; a host asks
+  // again until it answers (a real board also needs 1.5-2 s in its bootloader)
+  bool hello = wait_for("HI=", 1.0).has_value();
+  for (int attempt = 0; !hello && attempt < 30; ++attempt) {
+    send("HI=1=\n");
+    hello = wait_for("HI=", 1.0).has_value();
+  }
+  if (!hello) {
     error_ = "no hello from the firmware";
     return;
   }

@@ -8,8 +8,8 @@
 #include <algorithm>
 #include <array>
 #include <chrono>
-#include <optional>
 #include <cmath>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -145,8 +145,8 @@ TEST_F(RobotTest, TrajectoryEndsAtThePlannedStepsWithAllJointsTogether) {
                                     static_cast<double>(t.i("j3"))};
     std::array<double, 3> frac{};
     for (int i = 0; i < 3; ++i) frac[i] = (pos[i] - from[i]) / travel[i];
-    const double spread = *std::max_element(frac.begin(), frac.end()) -
-                          *std::min_element(frac.begin(), frac.end());
+    const double spread =
+        *std::max_element(frac.begin(), frac.end()) - *std::min_element(frac.begin(), frac.end());
     worst = std::max(worst, spread);
     if (frac[0] > 0.05 && frac[0] < 0.95) ++samples_moving;
     done = robot.line(0.01);
@@ -202,8 +202,8 @@ TEST_F(RobotTest, StopHaltsMotionWithinTenMilliseconds) {
   const auto stop_rx = t.u("last_rx_sim_us");
   const auto last_step = t.u("last_step_sim_us");
   EXPECT_LT(t.i("j2"), 3000) << "stopped before the end of the jog";
-  EXPECT_LE(last_step, stop_rx + 10000) << "last step " << last_step - stop_rx
-                                        << " us after the stop byte";
+  EXPECT_LE(last_step, stop_rx + 10000)
+      << "last step " << last_step - stop_rx << " us after the stop byte";
   auto st = robot.query_state();
   ASSERT_TRUE(st);
   EXPECT_EQ(st->j2(), t.i("j2"));
