@@ -85,46 +85,12 @@ const CodeSpec* find_code(const LinkSpec& link, uint16_t code) {
 }
 
 const char* error_name(uint8_t code) {
-  switch (code) {
-    case kErrNone:
-      return "none";
-    case kErrLineTooLong:
-      return "line_too_long";
-    case kErrBadCharacter:
-      return "bad_character";
-    case kErrUnknownCode:
-      return "unknown_code";
-    case kErrWrongFieldCount:
-      return "wrong_field_count";
-    case kErrBadNumber:
-      return "bad_number";
-    case kErrQueueFull:
-      return "queue_full";
-    case kErrNotHomed:
-      return "not_homed";
-    case kErrJointLimit:
-      return "joint_limit";
-    case kErrBusy:
-      return "busy";
-    case kErrSequence:
-      return "sequence";
-    case kErrBadValue:
-      return "bad_value";
-    case kErrPayloadTooLarge:
-      return "payload_too_large";
-    case kErrVersion:
-      return "version";
-    case kErrHalted:
-      return "halted";
-    case kErrInternal:
-      return "internal";
-    case kErrTimeout:
-      return "timeout";
-    case kErrDisconnected:
-      return "disconnected";
-    default:
-      return "unknown";
-  }
+  static const char* const kNames[kErrMaxCode + 1] = {
+      "none",       "line_too_long", "bad_character",     "unknown_code", "wrong_field_count",
+      "bad_number", "queue_full",    "not_homed",         "joint_limit",  "busy",
+      "sequence",   "bad_value",     "payload_too_large", "version",      "halted",
+      "internal",   "timeout",       "disconnected"};
+  return code <= kErrMaxCode ? kNames[code] : "unknown";
 }
 
 // character classes -------------------------------------------------------------------------
