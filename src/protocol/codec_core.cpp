@@ -1,81 +1,14 @@
-// Packet codec core: code tables, streaming decoder and encoder (docs/protocol.md).
-// C++14 subset shared with the firmware: see codec_core.h.
+// Packet codec core: streaming decoder and encoder (docs/protocol.md); the code tables are in
+// code_tables.hpp. C++14 subset shared with the firmware: see codec_core.h.
 #include "scaratwin/protocol/codec_core.h"
 
 #include <string.h>
 
+#include "code_tables.hpp"
+
 namespace scaratwin {
 namespace protocol {
 namespace core {
-
-// code tables -------------------------------------------------------------------------------
-
-namespace {
-
-const CodeSpec kSerialHostToDeviceCodes[] = {
-    make_code('H', 'I', 1, "i"),        // proto_version
-    make_code('P', 'I', 0, "i"),        // [token]
-    make_code('S', 'R', 1, "i"),        // rate_hz
-    make_code('Q', 'S', 0, ""),         //
-    make_code('H', 'M', 0, ""),         //
-    make_code('T', 'B', 1, "i"),        // n
-    make_code('T', 'P', 6, "iiiiiii"),  // seq dt_ms z j2 j3 wrist_cdeg [grip_cdeg]
-    make_code('G', 'R', 1, "i"),        // grip_cdeg
-    make_code('J', 'G', 2, "ii"),       // axis delta
-    make_code('S', 'P', 0, ""),         //
-    make_code('C', 'F', 1, "ii"),       // key [value]
-};
-
-const CodeSpec kSerialDeviceToHostCodes[] = {
-    make_code('H', 'I', 3, "itt"),        // proto_version device fw_version
-    make_code('S', 'T', 9, "iuiiiiiii"),  // seq t_us z j2 j3 wrist grip flags queue_free
-    make_code('A', 'K', 1, "ti"),         // code [value]
-    make_code('E', 'R', 1, "ii"),         // err_code [detail]
-    make_code('E', 'V', 1, "ii"),         // event [value]
-};
-
-const CodeSpec kTcpHubToSimCodes[] = {
-    make_code('H', 'I', 1, "i"),       // proto_version
-    make_code('P', 'I', 0, "i"),       // [token]
-    make_code('J', 'D', 6, "iudddd"),  // seq t_us d1_mm q2_deg q3_deg q4_deg
-    make_code('T', 'J', 6, "iudddd"),  // seq t_us d1_mm q2_deg q3_deg q4_deg
-    make_code('M', 'D', 1, "t"),       // mode
-    make_code('G', 'R', 1, "i"),       // state
-    make_code('C', 'S', 0, "ii"),      // [width_px height_px]
-    make_code('S', 'C', 3, "tdd"),     // color x_mm y_mm
-    make_code('R', 'S', 0, ""),        //
-    make_code('O', 'P', 0, "i"),       // [id]
-    make_code('Q', 'S', 0, ""),        //
-    make_code('S', 'P', 0, ""),        //
-};
-
-const CodeSpec kTcpSimToHubCodes[] = {
-    make_code('H', 'I', 3, "itt"),                 // proto_version device version
-    make_code('J', 'A', 2, "iu"),                  // seq t_apply_us
-    make_code('G', 'R', 2, "ii"),                  // state held_id
-    make_code('I', 'M', 1, "i", kCodeHasPayload),  // nbytes, then the PNG bytes
-    make_code('O', 'P', 6, "itdddd"),              // id color x_mm y_mm z_mm yaw_deg
-    make_code('S', 'T', 9, "iuddddiit"),           // seq t_us d1 q2 q3 q4 grip held_id mode
-    make_code('J', 'W', 2, "id"),                  // joint value
-    make_code('A', 'K', 1, "ti"),                  // code [value]
-    make_code('E', 'R', 1, "ii"),                  // err_code [detail]
-};
-
-template <typename T, size_t N>
-constexpr uint8_t count_of(const T (&)[N]) {
-  return static_cast<uint8_t>(N);
-}
-
-}  // namespace
-
-const LinkSpec kSerialHostToDevice = {
-    '=', 1, kSerialMaxLine, 0, kSerialHostToDeviceCodes, count_of(kSerialHostToDeviceCodes)};
-const LinkSpec kSerialDeviceToHost = {
-    '=', 0, kSerialMaxLine, 0, kSerialDeviceToHostCodes, count_of(kSerialDeviceToHostCodes)};
-const LinkSpec kTcpHubToSim = {
-    ',', 0, kTcpMaxLine, 0, kTcpHubToSimCodes, count_of(kTcpHubToSimCodes)};
-const LinkSpec kTcpSimToHub = {
-    ',', 0, kTcpMaxLine, kMaxImageBytes, kTcpSimToHubCodes, count_of(kTcpSimToHubCodes)};
 
 const CodeSpec* find_code(const LinkSpec& link, uint16_t code) {
   for (uint8_t i = 0; i < link.code_count; ++i) {
@@ -107,8 +40,18 @@ inline bool is_graphic(char c) {
   return static_cast<uint8_t>(c) > 0x20 && static_cast<uint8_t>(c) < 0x7f;
 }
 
-const uint32_t kPow10[10] = {1UL,      10UL,      100UL,      1000UL,      10000UL,
-                             100000UL, 1000000UL, 10000000UL, 100000000UL, 1000000000UL};
+// 10^e for e <= 9. avr-gcc would put a table in RAM, so the AVR build multiplies.
+inline uint32_t pow10_u32(uint8_t e) {
+#ifdef __AVR__
+  uint32_t v = 1;
+  while (e-- > 0) v *= 10u;
+  return v;
+#else
+  static const uint32_t kPow10[10] = {1u,      10u,      100u,      1000u,      10000u,
+                                      100000u, 1000000u, 10000000u, 100000000u, 1000000000u};
+  return kPow10[e];
+#endif
+}
 
 // Checks a decimal field: ["-"] 1*DIGIT ["." 1*DIGIT], <= 9 significant integer digits and
 // <= 6 fraction digits. When the value in millionths fits an int32_t, stores it in *micro
@@ -140,7 +83,8 @@ bool check_decimal(const char* s, uint16_t n, int32_t* micro, bool* fits) {
     if (frac_digits == 0) return false;
   }
   if (whole <= 2147u) {
-    const uint32_t m = whole * kPow10[6] + frac * kPow10[6 - frac_digits];
+    const uint32_t m =
+        whole * pow10_u32(6) + frac * pow10_u32(static_cast<uint8_t>(6 - frac_digits));
     if (m <= 2147483647UL) {
       *micro = negative ? -static_cast<int32_t>(m) : static_cast<int32_t>(m);
       *fits = true;
@@ -175,8 +119,8 @@ bool Packet::fixed(uint8_t i, uint8_t decimals, int32_t* out) const {
     acc = acc * 10u + d;
   }
   // integer part times 10^decimals, then the fraction digits, then rounding.
-  if (acc > 4294967295UL / kPow10[decimals]) return false;
-  acc *= kPow10[decimals];
+  if (acc > 4294967295UL / pow10_u32(decimals)) return false;
+  acc *= pow10_u32(decimals);
   uint32_t frac = 0;
   uint8_t taken = 0;
   bool round_up = false;
@@ -528,8 +472,8 @@ void Encoder::add_fixed(int32_t scaled, uint8_t decimals) {
   }
   const uint32_t magnitude =
       scaled < 0 ? 0u - static_cast<uint32_t>(scaled) : static_cast<uint32_t>(scaled);
-  const uint32_t whole = magnitude / kPow10[decimals];
-  uint32_t frac = magnitude % kPow10[decimals];
+  const uint32_t whole = magnitude / pow10_u32(decimals);
+  uint32_t frac = magnitude % pow10_u32(decimals);
   while (decimals > 0 && frac % 10u == 0) {
     frac /= 10u;
     --decimals;
