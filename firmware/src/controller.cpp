@@ -45,8 +45,6 @@ enum Flag : uint8_t {
   kFlagHalted = 16
 };
 
-constexpr uint8_t kReplyRoom = 72;  // transmit space needed before a line is taken in
-
 Settings g_settings;
 char g_line[kLineMax];
 core::Decoder g_decoder(core::kSerialHostToDevice, g_line, kLineMax);
@@ -299,7 +297,7 @@ void read_serial() {
     g_decoder.reset();
     reply_er(core::kErrQueueFull, true, 0);
   }
-  while (serial_tx_free() >= kReplyRoom) {
+  while (serial_tx_free() >= kReplyReserve) {
     int16_t b = serial_read();
     if (b < 0) return;
     core::Event ev;

@@ -27,7 +27,9 @@ void report_set_rate(uint16_t rate_hz, uint32_t now_us) {
 
 uint16_t report_rate() { return g_rate_hz; }
 
-bool report_now(uint8_t flags, uint8_t queue_free) {
+namespace {
+
+bool send_report(uint8_t flags, uint8_t queue_free, uint8_t reserve) {
   const uint32_t t = clock_micros();
   int32_t pos[kNumAxes];
   stepper_positions(pos);
@@ -44,8 +46,13 @@ bool report_now(uint8_t flags, uint8_t queue_free) {
   enc.add_i32(queue_free);
   g_seq = (uint16_t)(g_seq + 1);
   if (!enc.end()) return false;
+  if (serial_tx_free() < enc.size() + reserve) return false;  // lost: the gap shows it
   return serial_write(buf, (uint8_t)enc.size());
 }
+
+}  // namespace
+
+bool report_now(uint8_t flags, uint8_t queue_free) { return send_report(flags, queue_free, 0); }
 
 void report_poll(uint32_t now_us, uint8_t flags, uint8_t queue_free) {
   if (g_period_us == 0) return;
@@ -54,7 +61,7 @@ void report_poll(uint32_t now_us, uint8_t flags, uint8_t queue_free) {
   uint32_t missed = (uint32_t)late / g_period_us;  // deadlines the loop did not see
   g_seq = (uint16_t)(g_seq + missed);
   g_next_us += (missed + 1) * g_period_us;
-  report_now(flags, queue_free);
+  send_report(flags, queue_free, kReplyReserve);
 }
 
 }  // namespace fw

@@ -11,6 +11,11 @@
 
 namespace fw {
 
+// Transmit space periodic reports leave free, so that replies to commands always find room
+// and commands keep being served at any report rate (the controller reads a line only when
+// this much space is free).
+constexpr uint8_t kReplyReserve = 64;
+
 void report_set_rate(uint16_t rate_hz, uint32_t now_us);
 uint16_t report_rate();
 // Sends the periodic report if due. `flags` and `queue_free` as in docs/protocol.md.
