@@ -40,6 +40,7 @@ struct SimServer::Impl {
   std::mutex handle_mutex;  // handle_line() from the io thread or from a test
   proto::TcpToSimDecoder decoder;
   std::uint16_t state_seq = 0;
+  std::uint32_t stream_first_us = 0;
   std::uint64_t shots = 0;
   std::atomic<std::uint64_t> packets{0}, errors_sent{0}, joint_frames{0}, images_sent{0},
       warnings_sent{0};
@@ -78,7 +79,14 @@ struct SimServer::Impl {
     reply_joint(out, r, m.seq, m.t_us, m.q);
   }
   void on(std::string& out, const proto::JointTargets& m) {
-    auto r = world.with_simulation([&](Simulation& s) { return s.hold(m.q); });
+    // paced: a servo target now; --speed max: a timed target of a prediction stream, played
+    // in lockstep as fast as possible (t_us offsets from the stream's first target)
+    const bool stream = world.options().speed == 0.0;
+    auto r = world.with_simulation([&](Simulation& s) {
+      if (!stream) return s.hold(m.q);
+      if (!s.stream_open()) stream_first_us = m.t_us;
+      return s.stream_target(static_cast<std::uint32_t>(m.t_us - stream_first_us) * 1e-6, m.q);
+    });
     reply_joint(out, r, m.seq, m.t_us, m.q);
   }
   void reply_joint(std::string& out, const Result<std::vector<JointWarning>>& r, std::uint16_t seq,
@@ -102,6 +110,11 @@ struct SimServer::Impl {
   }
   void on(std::string& out, const proto::Grasp& m) {
     const GripperStateValue g = world.with_simulation([&](Simulation& s) {
+      if (s.stream_open()) {
+        // at the stream's last target; the reply tells the state it will have then
+        s.queue_gripper(m.close ? GripperAction::kGrip : GripperAction::kRelease);
+        return GripperStateValue{m.close, s.held_cube()};
+      }
       if (m.close) {
         (void)s.grip();
       } else {

@@ -313,6 +313,60 @@ Result<std::vector<JointWarning>> Simulation::hold(const JointVector& q) {
   return warnings;
 }
 
+Result<std::vector<JointWarning>> Simulation::stream_target(double t_s, const JointVector& q) {
+  if (!std::isfinite(t_s) || !finite(q)) {
+    return sim_error(SimError::kBadArgument, "stream target time and joints must be finite");
+  }
+  if (mode_ != Mode::kSimulate) {
+    return sim_error(SimError::kWrongMode, "joint targets are followed in simulate mode");
+  }
+  if (stream_open()) {
+    JointTrajectory& t = traj_->trajectory;
+    const JointSample& last = t.samples.back();
+    const double t_rel = t_s - traj_->sender_t0_s;
+    if (!(t_rel > last.t_s + 1e-9)) {
+      return sim_error(SimError::kBadArgument,
+                       fmt::format("stream target at {} s does not come after the previous one "
+                                   "at {} s",
+                                   t_rel, last.t_s));
+    }
+    JointSample next{t_rel, q, {}, {}};
+    for (int j = 0; j < kNumJoints; ++j) next.qd[j] = (q[j] - last.q[j]) / (t_rel - last.t_s);
+    auto warnings = note_limits(q);
+    t.samples.push_back(next);
+    return warnings;
+  }
+  auto warnings = note_limits(q);
+  ActiveTrajectory a;
+  a.stream = true;
+  a.sender_t0_s = t_s;
+  a.start_s = d_->time;
+  a.trajectory.samples.push_back(JointSample{0.0, q, {}, {}});
+  traj_ = std::move(a);
+  return warnings;
+}
+
+double Simulation::stream_horizon_s() const {
+  if (!stream_open()) return -INFINITY;
+  return traj_->start_s + traj_->trajectory.samples.back().t_s;
+}
+
+void Simulation::end_stream() {
+  if (stream_open()) traj_->stream = false;  // finishes like any trajectory
+}
+
+void Simulation::queue_gripper(GripperAction action) {
+  if (stream_open()) {
+    traj_->trajectory.events.push_back(GripperEvent{traj_->trajectory.samples.back().t_s, action});
+    return;
+  }
+  if (action == GripperAction::kGrip) {
+    (void)grip();
+  } else {
+    release();
+  }
+}
+
 void Simulation::stop() {
   traj_.reset();
   if (mode_ == Mode::kSimulate) target_ = joints();
@@ -375,7 +429,8 @@ void Simulation::run_due_gripper_events() {
     }
     ++traj_->next_event;
   }
-  if (t_rel > traj_->trajectory.duration_s() && traj_->next_event >= events.size()) {
+  if (!traj_->stream && t_rel > traj_->trajectory.duration_s() &&
+      traj_->next_event >= events.size()) {
     target_ = traj_->trajectory.samples.back().q;
     traj_.reset();
   }

@@ -1,7 +1,9 @@
 // World: the stepping thread with real-time pacing, snapshots and camera shots.
 #include "scaratwin/sim/world.hpp"
 
+#include <algorithm>
 #include <chrono>
+#include <cmath>
 
 #include <fmt/format.h>
 #include <mujoco/mujoco.h>
@@ -80,7 +82,15 @@ void World::run() {
       const bool fast = options_.speed == 0.0 && sim_->trajectory_active();
       Status st = Ok{};
       const std::uint64_t before_t = static_cast<std::uint64_t>(std::llround(sim_->time_s() / dt));
-      if (fast) {
+      if (fast && sim_->stream_open()) {
+        // lockstep with the stream: up to its last target, then wait for the next one
+        const double ahead = (sim_->stream_horizon_s() - sim_->time_s()) / dt + 1e-9;
+        const int n = std::min(kFastChunk, static_cast<int>(std::max(0.0, std::floor(ahead))));
+        st = sim_->step(n);
+        if (n == 0) next_due_s = 0.001;
+        wall0 = Clock::now();
+        sim0 = sim_->time_s();
+      } else if (fast) {
         st = sim_->step(kFastChunk);
         wall0 = Clock::now();
         sim0 = sim_->time_s();

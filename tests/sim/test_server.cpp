@@ -2,6 +2,9 @@
 // malformed packets that get an error reply and leave the scene untouched.
 #include <utility>
 
+#include <chrono>
+#include <thread>
+
 #include <gtest/gtest.h>
 
 #include "scaratwin/config/robot_config.hpp"
@@ -169,6 +172,46 @@ TEST_F(SimServerTest, SimulateModeFollowsTargetsAndGrasps) {
   EXPECT_NEAR(world_->snapshot().joints[0], 0.047, 1e-3);
   ASSERT_TRUE(client_->send("GR,1,\nGR,0,\n").ok());
   EXPECT_EQ(lines(2), (std::vector<std::string>{"GR,1,-1,", "GR,0,-1,"}));
+}
+
+TEST(SimServerMax, TargetStreamRunsInLockstepAsFastAsPossible) {
+  auto m = load_robot_config(SCARATWIN_CONFIG_FILE);
+  ASSERT_TRUE(m.ok());
+  WorldOptions wo;
+  wo.speed = 0.0;
+  wo.camera = false;
+  auto world = World::create(*m, {}, wo);
+  ASSERT_TRUE(world.ok());
+  ServerOptions o;
+  o.port = 0;
+  auto server = SimServer::create(**world, o);
+  ASSERT_TRUE(server.ok());
+  (*world)->start();
+  // paused while the stream is sent, so that it starts at a known simulation time
+  (*world)->set_paused(true);
+  const double t_start = (*world)->snapshot().time_s;
+  EXPECT_EQ((*server)->handle_line("MD,simulate,"), "AK,MD,\n");
+  // 3 s of targets, 20 ms apart, starting near the wrap of the 32-bit microsecond clock
+  const std::uint32_t t0 = 4294000000u;
+  for (int i = 0; i <= 150; ++i) {
+    const std::uint32_t t = t0 + static_cast<std::uint32_t>(20000 * i);
+    const std::string tj = "TJ," + std::to_string(i) + "," + std::to_string(t) + "," +
+                           std::to_string(120 - i / 3) + ",0,0,0,";
+    ASSERT_EQ((*server)->handle_line(tj).rfind("JA,", 0), 0u);
+  }
+  // the simulation catches up with the last target and waits there
+  (*world)->set_paused(false);
+  const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(30);
+  while ((*world)->snapshot().time_s < t_start + 3.0 - 1e-9 &&
+         std::chrono::steady_clock::now() < deadline) {
+    std::this_thread::sleep_for(std::chrono::milliseconds(10));
+  }
+  const double t_end = (*world)->snapshot().time_s;
+  EXPECT_NEAR(t_end, t_start + 3.0, 1e-9);
+  std::this_thread::sleep_for(std::chrono::milliseconds(100));
+  EXPECT_EQ((*world)->snapshot().time_s, t_end);  // no stepping past the stream
+  EXPECT_NEAR((*world)->snapshot().joints[0], 0.07, 2e-3);
+  EXPECT_EQ((*server)->handle_line("SP,"), "AK,SP,\n");
 }
 
 }  // namespace

@@ -4,6 +4,12 @@
 // reply of the packet that caused them. A line that does not decode gets its ER reply and
 // never reaches the simulation, so the scene stays untouched.
 //
+// Pacing: with World speed 1 (real time) a TJ is a servo target applied at once. With speed 0
+// (`--speed max`, prediction) consecutive TJ packets form a timed stream (their t_us offsets
+// from the first one) that the simulation plays in lockstep as fast as it can: it never runs
+// past the last target received, so a run depends only on the packets, not on their timing.
+// A GR during a stream acts at the stream's last target. SP or MD ends the stream.
+//
 // Refusals (ER code, detail): JD in simulate mode or TJ in mirror mode -> 9 busy; an unknown
 // object id, a spawn off the table or on another cube, an image size beyond the offscreen
 // buffer -> 11 bad_value (detail: field index); a colour whose cube pool is used up -> 6

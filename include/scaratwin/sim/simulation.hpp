@@ -123,6 +123,21 @@ class Simulation {
   Result<std::vector<JointWarning>> follow(const JointTrajectory& trajectory);
   // Simulate: holds q (a one-point move with the servos).
   Result<std::vector<JointWarning>> hold(const JointVector& q);
+  // Simulate, prediction runs: appends one timed target to a stream. `t_s` is the target's
+  // time on the sender's clock; the first target of a stream is played at once, the next ones
+  // at their offsets from it (servo targets interpolated in between, velocity fed forward).
+  // The stream stays open, holding its last target, until end_stream(), stop() or a mode
+  // change; stream_horizon_s() tells how far it reaches, so that a caller stepping as fast as
+  // it can stops there and waits for more (lockstep: the result does not depend on timing).
+  // Errors: not finite, mirror mode, a time not after the previous target's.
+  Result<std::vector<JointWarning>> stream_target(double t_s, const JointVector& q);
+  bool stream_open() const { return traj_.has_value() && traj_->stream; }
+  // Simulation time of the open stream's last target (or -infinity).
+  double stream_horizon_s() const;
+  void end_stream();
+  // A grasp or release at the time of the open stream's last target; at once without one.
+  void queue_gripper(GripperAction action);
+
   // Stops any trajectory and holds the current joints.
   void stop();
   // Puts the robot at its home pose at once (joints, velocities, targets), in either mode.
@@ -207,6 +222,8 @@ class Simulation {
     JointTrajectory trajectory;
     double start_s = 0.0;
     std::size_t next_event = 0;
+    bool stream = false;       // built by stream_target(), open until ended
+    double sender_t0_s = 0.0;  // sender's time of the stream's first target
   };
   std::optional<ActiveTrajectory> traj_;
   bool gripper_closed_ = false;
