@@ -1,5 +1,6 @@
-// scaratwin sim: runs the simulator executable `scaratwin-sim` installed beside this one,
-// passing every argument after `sim` through (see `scaratwin sim --help`).
+// scaratwin sim / scaratwin robot: run the executables `scaratwin-sim` and `scaratwin-robot`
+// installed beside this one (as git does), passing every argument after the subcommand
+// through. The emulator is its own executable because it links GPL-3.0 libsimavr.
 #include <unistd.h>
 
 #include <cerrno>
@@ -24,23 +25,35 @@ int exec_sibling(const char* name, const std::vector<std::string>& args) {
   for (std::string& s : argv_s) argv.push_back(s.data());
   argv.push_back(nullptr);
   ::execv(argv[0], argv.data());
-  std::fprintf(stderr, "scaratwin sim: cannot run %s: %s\n", argv[0], std::strerror(errno));
+  std::fprintf(stderr, "scaratwin: cannot run %s: %s\n", argv[0], std::strerror(errno));
   return kExitFailure;
 }
 
 }  // namespace
 
 void add_sim_command(CLI::App& app, CommonOptions& /*common*/, Runner& run) {
-  CLI::App* cmd = app.add_subcommand(
-      "sim",
-      "run the virtual robot (MuJoCo simulator, camera, TCP server on 127.0.0.1:55016); "
-      "arguments go to scaratwin-sim (try: scaratwin sim --help)");
-  cmd->prefix_command();
-  cmd->set_help_flag();  // --help goes through to scaratwin-sim
-  cmd->callback([cmd, &run] {
-    auto args = std::make_shared<std::vector<std::string>>(cmd->remaining());
-    run = [args] { return exec_sibling("scaratwin-sim", *args); };
-  });
+  struct Layer {
+    const char* sub;
+    const char* exe;
+    const char* help;
+  };
+  static constexpr Layer kLayers[] = {
+      {"sim", "scaratwin-sim",
+       "run the virtual robot (MuJoCo simulator, camera, TCP server on 127.0.0.1:55016); "
+       "arguments go to scaratwin-sim (try: scaratwin sim --help)"},
+      {"robot", "scaratwin-robot",
+       "run the emulated physical robot (our firmware in simavr, serial port on a pty); "
+       "arguments go to scaratwin-robot (GPL-3.0; try: scaratwin robot --help)"},
+  };
+  for (const Layer& layer : kLayers) {
+    CLI::App* cmd = app.add_subcommand(layer.sub, layer.help);
+    cmd->prefix_command();
+    cmd->set_help_flag();  // --help goes through to the executable
+    cmd->callback([cmd, &run, exe = layer.exe] {
+      auto args = std::make_shared<std::vector<std::string>>(cmd->remaining());
+      run = [args, exe] { return exec_sibling(exe, *args); };
+    });
+  }
 }
 
 }  // namespace scaratwin::cli

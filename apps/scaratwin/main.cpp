@@ -20,6 +20,8 @@ int main(int argc, char** argv) {
   add_model_command(app, common, run);
   add_sim_command(app, common, run);
   add_report_commands(app, common, run);
+  add_demo_command(app, common, run);
+  add_statement_commands(app, common, run);
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {

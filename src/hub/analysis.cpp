@@ -39,18 +39,24 @@ LatencyFigures latency_figures(const std::vector<LatencyRecord>& frames, double 
     }
     dev[i] = frames[i].device_t_us + wraps;
   }
-  int64_t min_offset = INT64_MAX;
   for (size_t i = 0; i < frames.size(); ++i) {
-    min_offset = std::min(min_offset, frames[i].hub_rx_us - dev[i]);
     hub.push_back(static_cast<double>(frames[i].sim_apply_us - frames[i].hub_rx_us) / 1000.0);
     if (i > 0) {
       const int64_t gap = (frames[i].seq - frames[i - 1].seq - 1 + 65536) % 65536;
       f.lost_frames += gap;
     }
   }
+  // The device clock is not the host's and drifts from it (an emulator that falls behind real
+  // time, a crystal's tolerance), so the offset is the smallest receive-minus-sample
+  // difference within a window of frames around each one.
+  constexpr size_t kWindow = 50;
   for (size_t i = 0; i < frames.size(); ++i) {
+    int64_t offset = INT64_MAX;
+    const size_t lo = i > kWindow ? i - kWindow : 0;
+    const size_t hi = std::min(frames.size(), i + kWindow + 1);
+    for (size_t j = lo; j < hi; ++j) offset = std::min(offset, frames[j].hub_rx_us - dev[j]);
     const double sample_host_us =
-        static_cast<double>(dev[i] + min_offset) - wire_s * 1e6;  // earliest possible
+        static_cast<double>(dev[i] + offset) - wire_s * 1e6;  // earliest possible
     f.device_to_sim_series_ms.push_back(
         (static_cast<double>(frames[i].sim_apply_us) - sample_host_us) / 1000.0);
   }

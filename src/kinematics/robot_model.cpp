@@ -34,9 +34,9 @@ RobotModel paper_robot() {
   m.scene.cube_size_m = 0.02;
   m.scene.grasp_z_m = -0.02;
   m.scene.approach_height_m = 0.04;
-  m.scene.trays[static_cast<int>(CubeColor::kRed)] = {0.10, -0.14, 0.05};
-  m.scene.trays[static_cast<int>(CubeColor::kGreen)] = {0.17, -0.11, 0.05};
-  m.scene.trays[static_cast<int>(CubeColor::kBlue)] = {0.225, -0.04, 0.05};
+  m.scene.trays[static_cast<int>(CubeColor::kRed)] = {0.130, -0.136, 0.05};
+  m.scene.trays[static_cast<int>(CubeColor::kGreen)] = {0.182, -0.096, 0.05};
+  m.scene.trays[static_cast<int>(CubeColor::kBlue)] = {0.212, -0.039, 0.05};
   m.scene.camera = {{0.15, 0.0, 0.45}, {0.15, 0.0, -0.03}, 45.0, 640, 480};
   return m;
 }

@@ -107,17 +107,29 @@ Status LinkImpl::send(std::string bytes, std::uint64_t packets) {
                                                        " bytes would be queued, limit " +
                                                        std::to_string(options_.max_tx_queue_bytes));
   }
-  boost::asio::post(context(), [self = shared_from_this(),
-                                data = std::make_shared<std::string>(std::move(bytes)), packets] {
-    if (self->closed() || !self->can_write()) {
-      // the connection went away between send() and now
-      self->drop_tx(data->size());
-      self->count_error();
-      return;
-    }
-    self->write(data, packets);
-  });
+  {
+    std::lock_guard<std::mutex> lock(tx_mutex_);
+    tx_pending_.emplace_back(std::make_shared<std::string>(std::move(bytes)), packets);
+  }
+  boost::asio::post(context(), [self = shared_from_this()] { self->drain_tx(); });
   return Ok{};
+}
+
+void LinkImpl::drain_tx() {
+  std::deque<std::pair<std::shared_ptr<std::string>, std::uint64_t>> batch;
+  {
+    std::lock_guard<std::mutex> lock(tx_mutex_);
+    batch.swap(tx_pending_);
+  }
+  for (auto& [data, packets] : batch) {
+    if (closed() || !can_write()) {
+      // the connection went away between send() and now
+      drop_tx(data->size());
+      count_error();
+      continue;
+    }
+    write(data, packets);
+  }
 }
 
 void LinkImpl::count_written(std::size_t bytes, std::uint64_t packets) {

@@ -80,6 +80,8 @@ class LinkImpl : public std::enable_shared_from_this<LinkImpl> {
  private:
   void deliver(Frame&& frame, std::int64_t steady_us, std::int64_t system_us,
                std::uint32_t connection);
+  // io thread: writes everything send() queued, in the order send() was called.
+  void drain_tx();
 
   std::shared_ptr<IoThread> io_;
   LinkOptions options_;
@@ -96,6 +98,12 @@ class LinkImpl : public std::enable_shared_from_this<LinkImpl> {
   std::atomic<LinkState> state_{LinkState::kConnecting};
   std::atomic<bool> closed_{false};
   std::atomic<std::size_t> tx_queued_bytes_{0};
+  // Bytes handed to send() and not yet given to write(), in call order. Asio does not keep
+  // handlers posted from different threads in posting order (a post from inside a handler
+  // waits in the io thread's private queue until that handler returns), so the order of the
+  // bytes is fixed here, under a mutex, and each posted drain takes whatever is queued.
+  std::mutex tx_mutex_;
+  std::deque<std::pair<std::shared_ptr<std::string>, std::uint64_t>> tx_pending_;
   std::uint32_t connection_ = 0;  // io thread only
 
   std::atomic<std::uint64_t> packets_in_{0}, packets_out_{0}, bytes_in_{0}, bytes_out_{0},

@@ -23,8 +23,9 @@ Stats summarize(std::vector<double> values);
 
 // Mirror latency of each frame, in ms: the simulator's apply time minus the hub's receive
 // time (hub_to_sim), and the device's sample time to the apply time (device_to_sim). The
-// device clock is aligned to the host's by the smallest receive-minus-sample offset seen, plus
-// the wire time of one state report (`wire_s`), which no frame can beat.
+// device clock is aligned to the host's by the smallest receive-minus-sample offset among the
+// 50 frames on either side (the clocks drift), plus the wire time of one state report
+// (`wire_s`), which no frame can beat.
 struct LatencyFigures {
   Stats hub_to_sim_ms;
   Stats device_to_sim_ms;

@@ -1,0 +1,434 @@
+// scaratwin demo: the main job. Starts the simulator and the emulated robot (our firmware in
+// simavr) as separate processes, connects the hub to both over real TCP and a pty, and runs the
+// paper's three twin functions: mirror, control, and the colour-sorting prediction followed by
+// its physical replay. Writes the database and the report; exits 0 only if every cube ends in
+// its tray. `--serial /dev/ttyACM0` drives a real Arduino instead of the emulator.
+#include <unistd.h>
+
+#include <atomic>
+#include <chrono>
+#include <csignal>
+#include <cstdio>
+#include <random>
+#include <thread>
+
+#include <fmt/format.h>
+
+#include "commands.hpp"
+#include "scaratwin/core/units.hpp"
+#include "scaratwin/hub/analysis.hpp"
+#include "scaratwin/hub/hub.hpp"
+#include "scaratwin/hub/process.hpp"
+#include "scaratwin/hub/report.hpp"
+#include "scaratwin/hub/tasks.hpp"
+
+namespace scaratwin::cli {
+namespace {
+
+using namespace std::chrono_literals;
+
+struct DemoArgs {
+  std::string serial;
+  std::string out = "scaratwin-out";
+  bool keep_open = false;
+  int http_port = 8080;
+  double robot_speed = 1.0;
+  unsigned seed = 7;
+  double mirror_s = 6.0;
+};
+
+std::atomic<bool> g_interrupted{false};
+void on_interrupt(int) { g_interrupted = true; }
+
+// Prints a status line every second while a phase runs.
+class Ticker {
+ public:
+  Ticker(Hub& hub, std::string phase) : hub_(hub), phase_(std::move(phase)) {
+    thread_ = std::thread([this] {
+      const auto start = std::chrono::steady_clock::now();
+      while (!stop_) {
+        std::this_thread::sleep_for(100ms);
+        if (std::chrono::steady_clock::now() - last_ < 1s) continue;
+        last_ = std::chrono::steady_clock::now();
+        const MirrorCounters c = hub_.mirror_counters();
+        const PhysicalState p = hub_.physical();
+        const ToolPose tool = forward(hub_.model(), p.q);
+        fmt::print("    {:<10} {:5.1f} s  tool ({:6.1f}, {:6.1f}, {:6.1f}) mm  mirror {} frames, "
+                   "{} lost, latency {:.2f} ms\n",
+                   phase_, std::chrono::duration<double>(last_ - start).count(),
+                   m_to_mm(tool.x_m), m_to_mm(tool.y_m), m_to_mm(tool.z_m), c.applied, c.lost,
+                   c.last_latency_ms);
+        std::fflush(stdout);
+      }
+    });
+  }
+  ~Ticker() {
+    stop_ = true;
+    thread_.join();
+  }
+
+ private:
+  Hub& hub_;
+  std::string phase_;
+  std::atomic<bool> stop_{false};
+  std::chrono::steady_clock::time_point last_ = std::chrono::steady_clock::now();
+  std::thread thread_;
+};
+
+void step(int n, int total, const std::string& what) {
+  fmt::print("==> [{}/{}] {}\n", n, total, what);
+  std::fflush(stdout);
+}
+
+// Spawn positions for the three cubes: seeded, apart from each other, on the free side of
+// the table (the trays are on the -y side).
+std::vector<SortItem> cube_layout(unsigned seed) {
+  std::mt19937 rng(seed);
+  std::uniform_real_distribution<double> x(0.14, 0.22), y(0.03, 0.12);
+  std::vector<SortItem> out;
+  for (int c = 0; c < kNumColors; ++c) {
+    for (int tries = 0; tries < 1000; ++tries) {
+      const SortItem it{static_cast<CubeColor>(c), x(rng), y(rng), 0.0};
+      bool clear = true;
+      for (const SortItem& o : out) clear = clear && std::hypot(o.x_m - it.x_m, o.y_m - it.y_m) > 0.045;
+      if (clear) {
+        out.push_back(it);
+        break;
+      }
+    }
+  }
+  return out;
+}
+
+Status spawn_all(Hub& hub, const std::vector<SortItem>& items) {
+  for (const SortItem& it : items) {
+    auto id = hub.spawn_cube(it.color, it.x_m, it.y_m);
+    if (!id) return id.error();
+  }
+  std::this_thread::sleep_for(300ms);  // let them settle
+  return Ok{};
+}
+
+// Time from the start of a series until its joints first move.
+double motion_start(const RobotModel& model, const std::vector<JointRecord>& s) {
+  for (const JointRecord& r : s) {
+    if (tool_distance(model, r.q, s.front().q) > 1e-4) return r.t_s;
+  }
+  return s.empty() ? 0.0 : s.front().t_s;
+}
+
+struct DemoOutcome {
+  int in_trays_prediction = 0;
+  int in_trays_replay = 0;
+  std::uint64_t lost_frames = 0;
+  double virt_phys_mm = 0.0;
+};
+
+Result<DemoOutcome> run_phases(Hub& hub, TwinDb& db, const DemoArgs& a, std::int64_t demo) {
+  const RobotModel& model = hub.model();
+  DemoOutcome out;
+  constexpr int kSteps = 5;
+
+  // 1. home
+  step(1, kSteps, "home the physical robot against its endstops");
+  {
+    auto run = hub.begin_run("home", "homing", demo);
+    if (!run) return run.error();
+    hub.set_mirror(true);
+    Ticker t(hub, "home");
+    Status s = hub.home();
+    (void)hub.end_run(s.ok());
+    if (!s) return s.error();
+  }
+
+  // 2. mirror: the robot moves by itself (jogged), the virtual robot follows it.
+  step(2, kSteps, "digital mirror: jog the robot, the virtual robot follows");
+  {
+    auto run = hub.begin_run("mirror", "three jog motions", demo);
+    if (!run) return run.error();
+    const MirrorCounters before = hub.mirror_counters();
+    Ticker t(hub, "mirror");
+    const std::pair<protocol::Axis, double> jogs[] = {
+        {protocol::Axis::kJ2, 250.0}, {protocol::Axis::kJ3, -400.0}, {protocol::Axis::kZ, -3000.0}};
+    for (const auto& [axis, delta] : jogs) {
+      if (Status s = hub.jog(axis, delta); !s) return s.error();
+      std::this_thread::sleep_for(std::chrono::duration<double>(a.mirror_s / 3));
+    }
+    if (Status s = hub.wait_idle(60.0); !s) return s.error();
+    std::this_thread::sleep_for(200ms);
+    const MirrorCounters after = hub.mirror_counters();
+    out.lost_frames += after.lost - before.lost;
+    auto lat = db.latencies(*run);
+    if (lat) {
+      // one state report on the wire: about 55 bytes at 115200 baud.
+      const LatencyFigures lf = latency_figures(*lat, 55.0 * 10.0 / 115200.0);
+      hub.record_metric(metric::kFrames, static_cast<double>(lf.device_to_sim_ms.count), "frames");
+      hub.record_metric(metric::kLatencyMeanMs, lf.device_to_sim_ms.mean, "ms");
+      hub.record_metric(metric::kLatencyP99Ms, lf.device_to_sim_ms.p99, "ms");
+      hub.record_metric(metric::kHubToSimMeanMs, lf.hub_to_sim_ms.mean, "ms");
+      hub.record_metric(metric::kLostFrames, static_cast<double>(after.lost - before.lost), "frames");
+      fmt::print("    mirror: {} frames, {} lost, latency robot->virtual mean {:.2f} ms, p99 "
+                 "{:.2f} ms (paper: 74 ms)\n",
+                 lf.device_to_sim_ms.count, after.lost - before.lost, lf.device_to_sim_ms.mean,
+                 lf.device_to_sim_ms.p99);
+    }
+    (void)hub.end_run(true);
+  }
+
+  // 3. control: a cube spawned in the virtual scene is the target of the physical robot.
+  step(3, kSteps, "digital control: spawn a cube, move the physical robot to it");
+  {
+    auto run = hub.begin_run("control", "to a spawned cube", demo);
+    if (!run) return run.error();
+    Ticker t(hub, "control");
+    if (Status s = hub.reset_scene(); !s) return s.error();
+    auto id = hub.spawn_cube(CubeColor::kRed, 0.20, 0.05);
+    if (!id) return id.error();
+    std::this_thread::sleep_for(300ms);
+    auto objs = hub.objects();
+    if (!objs || objs->empty()) return Error{94, "control: the spawned cube is not in the scene"};
+    const protocol::ObjectPose cube = objs->front();
+    auto f = move_to_position(hub, cube.x_m, cube.y_m, model.scene.grasp_z_m + 0.005);
+    if (!f) return f.error();
+    hub.record_metric(metric::kToolErrTargetPhysMm, m_to_mm(f->target_physical_m), "mm");
+    hub.record_metric(metric::kToolErrTargetVirtMm, m_to_mm(f->target_virtual_m), "mm");
+    hub.record_metric(metric::kToolErrVirtPhysMm, m_to_mm(f->virtual_physical_m), "mm");
+    out.virt_phys_mm = m_to_mm(f->virtual_physical_m);
+    fmt::print("    control: {} points; tool error target->physical {:.3f} mm, "
+               "target->virtual {:.3f} mm, virtual->physical {:.3f} mm (paper: 2.01-3.83 mm)\n",
+               f->points, m_to_mm(f->target_physical_m), m_to_mm(f->target_virtual_m),
+               m_to_mm(f->virtual_physical_m));
+    // lift clear of the table before the next task.
+    auto up = move_to_position(hub, cube.x_m, cube.y_m,
+                               model.scene.grasp_z_m + model.scene.approach_height_m,
+                               f->physical.yaw_rad);
+    if (!up) return up.error();
+    (void)hub.end_run(true);
+  }
+
+  // 4. prediction: the sorting task in the simulator with physics.
+  step(4, kSteps, "digital prediction: camera shot, colour recognition, sorting simulated");
+  const std::vector<SortItem> layout = cube_layout(a.seed);
+  SortPlan plan;
+  std::int64_t prediction = 0;
+  {
+    auto run = hub.begin_run("prediction", "colour sorting in the simulator", demo);
+    if (!run) return run.error();
+    prediction = *run;
+    Ticker t(hub, "predict");
+    hub.set_mirror(false);
+    std::this_thread::sleep_for(100ms);
+    if (Status s = hub.reset_scene(); !s) return s.error();
+    if (Status s = hub.sim_mode(protocol::SimMode::kSimulate); !s) return s.error();
+    if (Status s = spawn_all(hub, layout); !s) return s.error();
+    for (const SortItem& it : layout) {
+      fmt::print("    spawned: {} cube at ({:.1f}, {:.1f}) mm\n", color_name(it.color),
+                 m_to_mm(it.x_m), m_to_mm(it.y_m));
+    }
+    auto seen = recognise_cubes(hub, model);
+    if (!seen) return seen.error();
+    for (const SortItem& it : *seen) {
+      fmt::print("    camera: {} cube at ({:.1f}, {:.1f}) mm\n", color_name(it.color),
+                 m_to_mm(it.x_m), m_to_mm(it.y_m));
+    }
+    if (seen->size() != layout.size()) {
+      return Error{95, fmt::format("colour recognition found {} cubes, expected {}",
+                                   seen->size(), layout.size())};
+    }
+    auto start = hub.fresh_physical(2.0);
+    if (!start) return start.error();
+    auto p = plan_sorting(model, start->q, *seen);
+    if (!p) return p.error();
+    plan = *p;
+    fmt::print("    plan: {} samples, {:.1f} s, {} gripper events\n", plan.trajectory.samples.size(),
+               plan.trajectory.duration_s(), plan.trajectory.events.size());
+    if (Status s = hub.simulate_trajectory(plan.trajectory); !s) return s.error();
+    std::this_thread::sleep_for(500ms);
+    auto objs = hub.objects();
+    if (!objs) return objs.error();
+    out.in_trays_prediction = cubes_in_trays(model, *objs);
+    hub.record_metric("prediction_cubes_in_tray", out.in_trays_prediction, "cubes");
+    fmt::print("    prediction: {} of {} cubes in their trays\n", out.in_trays_prediction,
+               layout.size());
+    (void)hub.end_run(out.in_trays_prediction == static_cast<int>(layout.size()));
+    if (out.in_trays_prediction != static_cast<int>(layout.size())) {
+      return Error{96, "the prediction did not sort every cube: the plan is not replayed"};
+    }
+  }
+
+  // 5. replay: the validated plan on the physical robot, mirrored live.
+  step(5, kSteps, "replay the validated plan on the physical robot");
+  {
+    auto run = hub.begin_run("replay", "colour sorting on the robot", demo, prediction);
+    if (!run) return run.error();
+    Ticker t(hub, "replay");
+    if (Status s = hub.sim_mode(protocol::SimMode::kMirror); !s) return s.error();
+    if (Status s = hub.reset_scene(); !s) return s.error();
+    if (Status s = spawn_all(hub, layout); !s) return s.error();
+    const MirrorCounters before = hub.mirror_counters();
+    hub.set_mirror(true);
+    auto n = hub.run_trajectory(plan.trajectory);
+    if (!n) return n.error();
+    std::this_thread::sleep_for(700ms);
+    const MirrorCounters after = hub.mirror_counters();
+    out.lost_frames += after.lost - before.lost;
+    auto objs = hub.objects();
+    if (!objs) return objs.error();
+    out.in_trays_replay = cubes_in_trays(model, *objs);
+    hub.record_metric(metric::kCubesInTray, out.in_trays_replay, "cubes");
+    hub.record_metric(metric::kDesyncAlarms, hub.desync_alarms(), "alarms");
+    hub.record_metric(metric::kLostFrames, static_cast<double>(after.lost - before.lost), "frames");
+    auto pred = db.samples(prediction, SampleSource::kVirtual);
+    auto phys = db.samples(*run, SampleSource::kPhysical);
+    if (pred && phys && !pred->empty() && !phys->empty()) {
+      const Deviation d =
+          compare_runs(model, *pred, *phys, motion_start(model, *phys) - motion_start(model, *pred));
+      hub.record_metric(metric::kReplayToolMaxMm, m_to_mm(d.tool_max_m), "mm");
+      hub.record_metric(metric::kReplayToolRmsMm, m_to_mm(d.tool_rms_m), "mm");
+      hub.record_metric(metric::kReplayFinalMm, m_to_mm(d.tool_final_m), "mm");
+      fmt::print("    replay vs prediction: tool deviation max {:.2f} mm, RMS {:.2f} mm, final "
+                 "{:.3f} mm\n",
+                 m_to_mm(d.tool_max_m), m_to_mm(d.tool_rms_m), m_to_mm(d.tool_final_m));
+    }
+    fmt::print("    replay: {} of {} cubes in their trays, {} desync alarms\n", out.in_trays_replay,
+               layout.size(), hub.desync_alarms());
+    (void)hub.end_run(out.in_trays_replay == static_cast<int>(layout.size()));
+  }
+  return out;
+}
+
+int run_demo(const CommonOptions& common, const DemoArgs& a) {
+  auto model = load_model(common);
+  if (!model) return kExitUsage;
+  namespace fs = std::filesystem;
+  std::error_code ec;
+  fs::create_directories(a.out, ec);
+  if (ec) {
+    std::fprintf(stderr, "scaratwin demo: cannot create --out '%s': %s\n", a.out.c_str(),
+                 ec.message().c_str());
+    return kExitUsage;
+  }
+  const fs::path out = fs::absolute(a.out);
+  std::signal(SIGINT, on_interrupt);
+  std::signal(SIGTERM, on_interrupt);
+  fmt::print("scaratwin demo: results in {}\n", out.string());
+
+  // the virtual robot.
+  std::vector<std::string> sim_args{"--port", "0", "--http-port", std::to_string(a.http_port)};
+  if (!common.config_path.empty()) sim_args.insert(sim_args.end(), {"--config", common.config_path});
+  auto sim = ChildProcess::start(sibling_executable("scaratwin-sim"), sim_args, out / "sim.log");
+  if (!sim) {
+    std::fprintf(stderr, "scaratwin demo: %s\n", sim.error().message.c_str());
+    return kExitFailure;
+  }
+  auto listening = (*sim)->wait_for_line("listening on", 30s);
+  if (!listening) {
+    std::fprintf(stderr, "scaratwin demo: simulator: %s\n", listening.error().message.c_str());
+    return kExitFailure;
+  }
+  const size_t colon = listening->rfind(':', listening->find(" (speed"));
+  const std::uint16_t sim_port =
+      static_cast<std::uint16_t>(std::stoi(listening->substr(colon + 1)));
+  if (auto ui = (*sim)->wait_for_line("http://", 5s); ui) {
+    fmt::print("3D view: {}\n", ui->substr(ui->find("http://")));
+  }
+
+  // the physical robot: a real board or our firmware in the emulator.
+  std::unique_ptr<ChildProcess> robot;
+  std::string device = a.serial;
+  if (device.empty()) {
+    std::vector<std::string> robot_args{"--speed", fmt::format("{}", a.robot_speed)};
+    if (!common.config_path.empty()) {
+      robot_args.insert(robot_args.end(), {"--config", common.config_path});
+    }
+    auto r = ChildProcess::start(sibling_executable("scaratwin-robot"), robot_args,
+                                 out / "robot.log");
+    if (!r) {
+      std::fprintf(stderr, "scaratwin demo: %s\n", r.error().message.c_str());
+      return kExitFailure;
+    }
+    robot = std::move(*r);
+    auto pty = robot->wait_for_line("pty: ", 30s);
+    if (!pty) {
+      std::fprintf(stderr, "scaratwin demo: emulator: %s\n", pty.error().message.c_str());
+      return kExitFailure;
+    }
+    device = pty->substr(pty->find("pty: ") + 5);
+    fmt::print("physical robot: firmware in the AVR emulator on {}\n", device);
+  } else {
+    fmt::print("physical robot: {}\n", device);
+  }
+
+  auto db = TwinDb::open(out / "twin.db");
+  if (!db) {
+    std::fprintf(stderr, "scaratwin demo: %s\n", db.error().message.c_str());
+    return kExitFailure;
+  }
+  HubOptions ho;
+  ho.serial_device = device;
+  ho.sim_port = sim_port;
+  auto hub = Hub::connect(*model, ho, db->get());
+  if (!hub) {
+    std::fprintf(stderr, "scaratwin demo: %s\n", hub.error().message.c_str());
+    return kExitFailure;
+  }
+  auto demo = (*db)->begin_run("demo", a.serial.empty() ? "emulated robot" : a.serial);
+  if (!demo) {
+    std::fprintf(stderr, "scaratwin demo: %s\n", demo.error().message.c_str());
+    return kExitFailure;
+  }
+  const auto t0 = std::chrono::steady_clock::now();
+  auto outcome = run_phases(**hub, **db, a, *demo);
+  const double dur = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  const bool ok = outcome && outcome->in_trays_replay == kNumColors;
+  (void)(*db)->end_run(*demo, ok ? "ok" : "failed", dur);
+  if (!outcome) std::fprintf(stderr, "scaratwin demo: %s\n", outcome.error().message.c_str());
+
+  // report and exports, also after a failure: nothing recorded is lost.
+  const fs::path report = out / "report.html";
+  if (Status s = write_report(**db, *model, *demo, report); !s) {
+    std::fprintf(stderr, "scaratwin demo: report: %s\n", s.error().message.c_str());
+  } else {
+    fmt::print("report: {}\n", report.string());
+  }
+  (void)(*db)->export_csv(*demo, out / "csv");
+  fmt::print("database: {} (run {}; `scaratwin report {} --db {}`)\n", (out / "twin.db").string(),
+             *demo, *demo, (out / "twin.db").string());
+  fmt::print("demo {} in {:.0f} s: {} of 3 cubes in their trays\n", ok ? "passed" : "FAILED", dur,
+             outcome ? outcome->in_trays_replay : 0);
+  std::fflush(stdout);
+  if (a.keep_open) {
+    fmt::print("--keep-open: the simulator and its UI keep running; Ctrl-C to stop\n");
+    std::fflush(stdout);
+    while (!g_interrupted) std::this_thread::sleep_for(200ms);
+  }
+  hub->reset();
+  if (robot) robot->stop();
+  (*sim)->stop();
+  return ok ? kExitOk : kExitFailure;
+}
+
+}  // namespace
+
+void add_demo_command(CLI::App& app, CommonOptions& common, Runner& run) {
+  auto a = std::make_shared<DemoArgs>();
+  CLI::App* cmd = app.add_subcommand(
+      "demo", "the whole twin, no hardware needed: simulator + emulated robot + hub; mirror, "
+              "control, colour-sorting prediction and its physical replay; database and report");
+  cmd->add_option("--serial", a->serial,
+                  "drive a real Arduino on this serial port instead of the emulator "
+                  "(e.g. /dev/ttyACM0)");
+  cmd->add_option("--out", a->out, "folder for the database, report, CSV and logs")
+      ->capture_default_str();
+  cmd->add_flag("--keep-open", a->keep_open, "leave the simulator and its UI running at the end");
+  cmd->add_option("--http-port", a->http_port, "port of the browser UI (0: none)")
+      ->capture_default_str();
+  cmd->add_option("--robot-speed", a->robot_speed,
+                  "emulated robot: emulated seconds per wall second (1 = real time)")
+      ->capture_default_str();
+  cmd->add_option("--seed", a->seed, "seed of the cube layout")->capture_default_str();
+  add_common_options(*cmd, common, false);
+  cmd->callback([&common, &run, a] { run = [&common, a] { return run_demo(common, *a); }; });
+}
+
+}  // namespace scaratwin::cli

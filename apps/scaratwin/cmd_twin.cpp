@@ -1,0 +1,196 @@
+// The control statements at the command line (`scaratwin move X Y Z`, `grip`, `spawn red X Y`,
+// `mirror --seconds N`, ...) and `scaratwin run FILE`, against a running simulator and robot.
+#include <unistd.h>
+
+#include <cerrno>
+#include <cstdio>
+#include <cstring>
+#include <fstream>
+#include <sstream>
+
+#include <fmt/format.h>
+
+#include "commands.hpp"
+#include "scaratwin/hub/hub.hpp"
+#include "scaratwin/hub/process.hpp"
+#include "scaratwin/hub/runner.hpp"
+
+namespace scaratwin::cli {
+namespace {
+
+struct LinkArgs {
+  std::string serial;
+  std::string sim = "127.0.0.1:55016";
+  std::string db = "scaratwin-out/twin.db";
+  bool no_db = false;
+};
+
+struct StatementArgs {
+  std::string name;
+  std::vector<std::string> words;
+  std::string file;
+  double seconds = 5.0;
+};
+
+void add_link_options(CLI::App& cmd, LinkArgs& l) {
+  cmd.add_option("--serial", l.serial,
+                 "serial port of the robot (a board's /dev/ttyACM0, or the pty that "
+                 "`scaratwin robot` prints); default: $SCARATWIN_SERIAL");
+  cmd.add_option("--sim", l.sim, "simulator address HOST:PORT")->capture_default_str();
+  cmd.add_option("--db", l.db, "twin database to record into")->capture_default_str();
+  cmd.add_flag("--no-db", l.no_db, "record nothing");
+}
+
+int with_hub(const CommonOptions& common, const LinkArgs& l, const std::string& kind,
+             const std::string& label,
+             const std::function<Status(Hub&)>& body) {
+  auto model = load_model(common);
+  if (!model) return kExitUsage;
+  HubOptions o;
+  o.serial_device = l.serial;
+  if (o.serial_device.empty()) {
+    if (const char* env = std::getenv("SCARATWIN_SERIAL")) o.serial_device = env;
+  }
+  if (o.serial_device.empty()) {
+    std::fprintf(stderr, "scaratwin %s: no robot: pass --serial DEVICE or set SCARATWIN_SERIAL "
+                         "(start one with `scaratwin robot`)\n", kind.c_str());
+    return kExitUsage;
+  }
+  const size_t colon = l.sim.rfind(':');
+  int port = 0;
+  try {
+    port = colon == std::string::npos ? 0 : std::stoi(l.sim.substr(colon + 1));
+  } catch (...) {
+  }
+  if (colon == std::string::npos || port <= 0 || port > 65535) {
+    std::fprintf(stderr, "scaratwin %s: --sim '%s': expected HOST:PORT\n", kind.c_str(),
+                 l.sim.c_str());
+    return kExitUsage;
+  }
+  o.sim_host = l.sim.substr(0, colon);
+  o.sim_port = static_cast<std::uint16_t>(port);
+  std::unique_ptr<TwinDb> db;
+  if (!l.no_db) {
+    auto d = TwinDb::open(l.db);
+    if (!d) {
+      std::fprintf(stderr, "scaratwin %s: %s\n", kind.c_str(), d.error().message.c_str());
+      return kExitUsage;
+    }
+    db = std::move(*d);
+  }
+  auto hub = Hub::connect(*model, o, db.get());
+  if (!hub) {
+    std::fprintf(stderr, "scaratwin %s: %s\n", kind.c_str(), hub.error().message.c_str());
+    return kExitFailure;
+  }
+  (void)(*hub)->begin_run(kind, label);
+  (*hub)->set_mirror(true);
+  Status s = body(**hub);
+  (void)(*hub)->end_run(s.ok());
+  if (!s) {
+    std::fprintf(stderr, "scaratwin %s: %s\n", kind.c_str(), s.error().message.c_str());
+    return kExitFailure;
+  }
+  return kExitOk;
+}
+
+void print_result(const Statement& st, const std::string& result) {
+  if (st.line > 0) {
+    fmt::print("{:>4}  {:<36} {}\n", st.line, st.source, result);
+  } else {
+    fmt::print("{}\n", result);
+  }
+  std::fflush(stdout);
+}
+
+int run_statement(const CommonOptions& common, const LinkArgs& l, const StatementArgs& a) {
+  std::string text = a.name;
+  for (const std::string& w : a.words) text += " " + w;
+  if (a.name == "mirror") text = fmt::format("mirror {}", a.seconds);
+  auto st = parse_statement(text, 0);
+  if (!st) {
+    std::fprintf(stderr, "scaratwin %s: %s\n", a.name.c_str(), st.error().message.c_str());
+    return kExitUsage;
+  }
+  return with_hub(common, l, a.name, text,
+                  [&](Hub& hub) { return execute(hub, *st, print_result); });
+}
+
+int run_file(const CommonOptions& common, const LinkArgs& l, const StatementArgs& a) {
+  std::ifstream in(a.file);
+  if (!in) {
+    std::fprintf(stderr, "scaratwin run: cannot read '%s'\n", a.file.c_str());
+    return kExitUsage;
+  }
+  std::stringstream ss;
+  ss << in.rdbuf();
+  // parse everything first: a script with a syntax error moves nothing.
+  auto script = parse_script(ss.str(), a.file);
+  if (!script) {
+    std::fprintf(stderr, "scaratwin run: %s\n", script.error().message.c_str());
+    return kExitUsage;
+  }
+  return with_hub(common, l, "script", a.file,
+                  [&](Hub& hub) { return run_script(hub, *script, a.file, print_result); });
+}
+
+}  // namespace
+
+void add_statement_commands(CLI::App& app, CommonOptions& common, Runner& run) {
+  auto links = std::make_shared<LinkArgs>();
+  struct Spec {
+    const char* name;
+    const char* help;
+    const char* args;
+  };
+  static constexpr Spec kSpecs[] = {
+      {"home", "home the physical robot against its endstops", nullptr},
+      {"move", "move the tool to X Y Z (m) [YAW (deg)]; the virtual robot follows", "X Y Z [YAW]"},
+      {"line", "move the tool in a straight line to X Y Z (m) [YAW (deg)]", "X Y Z [YAW]"},
+      {"movej", "move the joints to D1 (m) Q2 Q3 Q4 (deg)", "D1 Q2 Q3 Q4"},
+      {"grip", "close the gripper", nullptr},
+      {"release", "open the gripper", nullptr},
+      {"shoot", "take a camera picture [FILE.png]", "[FILE]"},
+      {"spawn", "spawn a cube in the virtual scene: red|green|blue X Y (m)", "COLOR X Y"},
+      {"reset", "remove every cube from the virtual scene", nullptr},
+      {"pick", "pick cube ID and place it in the tray of its colour", "ID"},
+      {"sort", "camera shot, colour recognition, sort every cube into its tray", nullptr},
+  };
+  for (const Spec& s : kSpecs) {
+    auto a = std::make_shared<StatementArgs>();
+    a->name = s.name;
+    CLI::App* cmd = app.add_subcommand(s.name, s.help);
+    cmd->group("Statements");
+    if (s.args != nullptr) {
+      cmd->add_option("args", a->words, s.args)->allow_extra_args();
+    }
+    add_link_options(*cmd, *links);
+    add_common_options(*cmd, common, false);
+    cmd->callback([&common, &run, links, a] {
+      run = [&common, links, a] { return run_statement(common, *links, *a); };
+    });
+  }
+  auto m = std::make_shared<StatementArgs>();
+  m->name = "mirror";
+  CLI::App* mirror = app.add_subcommand(
+      "mirror", "mirror the physical robot in the virtual one for a while; prints latency and loss");
+  mirror->group("Statements");
+  mirror->add_option("--seconds", m->seconds, "how long")->capture_default_str();
+  add_link_options(*mirror, *links);
+  add_common_options(*mirror, common, false);
+  mirror->callback([&common, &run, links, m] {
+    run = [&common, links, m] { return run_statement(common, *links, *m); };
+  });
+
+  auto f = std::make_shared<StatementArgs>();
+  CLI::App* file = app.add_subcommand(
+      "run", "run a script of statements (one per line; see docs); stops at the first error");
+  file->add_option("file", f->file, "script file")->required();
+  add_link_options(*file, *links);
+  add_common_options(*file, common, false);
+  file->callback([&common, &run, links, f] {
+    run = [&common, links, f] { return run_file(common, *links, *f); };
+  });
+}
+
+}  // namespace scaratwin::cli

@@ -1,0 +1,173 @@
+// The hub: holds the physical robot (serial link to the firmware) and the virtual robot (TCP
+// link to the simulator) together, as the paper's MATLAB data-processing layer did, and
+// records everything in the twin database.
+//
+//  - Digital mirror: every state report (ST) of the robot is converted from step counts to
+//    joints and forwarded to the simulator (JD); the simulator's JA reply closes the frame.
+//    Each frame's device sequence number and timestamp, hub receive time and simulator apply
+//    time are recorded, so latency and loss are measured per frame.
+//  - Digital control: joint trajectories are loaded into the robot with credit-based flow
+//    control (TB/TP) while the mirror shows the robot's actual motion in the simulator.
+//  - Digital prediction: trajectories run first in the simulator (simulate mode, physics,
+//    grasping), then are replayed on the robot; see hub/tasks.hpp.
+//
+// Thread safety: every public method may be called from any thread; the links' handlers run
+// on the io thread. Times recorded in the database are seconds since the current run began.
+#pragma once
+
+#include <atomic>
+#include <condition_variable>
+#include <cstdint>
+#include <deque>
+#include <functional>
+#include <memory>
+#include <mutex>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "scaratwin/core/result.hpp"
+#include "scaratwin/hub/twin_db.hpp"
+#include "scaratwin/kinematics/motor.hpp"
+#include "scaratwin/protocol/messages.hpp"
+#include "scaratwin/trajectory/trajectory.hpp"
+#include "scaratwin/transport/channel.hpp"
+#include "scaratwin/transport/io_thread.hpp"
+#include "scaratwin/transport/serial.hpp"
+#include "scaratwin/transport/statements.hpp"
+#include "scaratwin/transport/tcp.hpp"
+
+namespace scaratwin {
+
+struct HubOptions {
+  std::string serial_device;  // /dev/ttyACM0 or the emulator's pty
+  unsigned baud = 115200;
+  std::string sim_host = "127.0.0.1";
+  std::uint16_t sim_port = 55016;
+  int report_rate_hz = 100;         // robot state reports while connected
+  double hello_timeout_s = 5.0;     // a real board spends ~2 s in its bootloader
+  double desync_threshold_m = 0.003;  // tool deviation that raises the desync alarm
+  int desync_persist = 5;             // consecutive reports above it
+};
+
+// The robot as its last state report showed it.
+struct PhysicalState {
+  protocol::DeviceState raw;
+  JointVector q{};           // from the actual step counts
+  double grip_deg = 0.0;     // gripper servo output
+  std::int64_t rx_steady_us = 0;
+  bool valid = false;
+};
+
+// Live mirror counters (also shown by the demo's progress line).
+struct MirrorCounters {
+  std::uint64_t frames = 0;       // JD frames forwarded
+  std::uint64_t applied = 0;      // JA replies received
+  std::uint64_t lost = 0;         // ST sequence gaps
+  double last_latency_ms = 0.0;   // hub receive -> simulator applied, last frame
+  double mean_latency_ms = 0.0;
+};
+
+class Hub {
+ public:
+  // Connects both links, exchanges hellos and starts the robot's state reports. `db` may be
+  // null (nothing recorded); it must outlive the twin.
+  static Result<std::unique_ptr<Hub>> connect(const RobotModel& model, const HubOptions& options,
+                                               TwinDb* db);
+  ~Hub();
+  Hub(const Hub&) = delete;
+  Hub& operator=(const Hub&) = delete;
+
+  const RobotModel& model() const { return model_; }
+
+  // --- runs: what is recorded goes to the current run ------------------------------------
+  Result<std::int64_t> begin_run(const std::string& kind, const std::string& label,
+                                 std::int64_t parent = 0, std::int64_t ref = 0);
+  Status end_run(bool ok);
+  std::int64_t current_run() const;
+  double run_time_s() const;  // seconds since the current run began
+  void record_event(const std::string& kind, const std::string& detail);
+  void record_metric(const std::string& name, double value, const std::string& unit);
+
+  // --- digital mirror ---------------------------------------------------------------------
+  // Forward every state report to the simulator (JD) while on.
+  void set_mirror(bool on);
+  MirrorCounters mirror_counters() const;
+
+  // --- physical robot ---------------------------------------------------------------------
+  PhysicalState physical() const;
+  // Waits for a state report newer than now.
+  Result<PhysicalState> fresh_physical(double timeout_s);
+  Status home(double timeout_s = 120.0);
+  // Waits until a state report shows the robot at rest (no jog, no trajectory).
+  Status wait_idle(double timeout_s);
+  // Loads `trajectory` (its first sample must be the robot's current pose) with credit flow
+  // control (the numberTran3 statement) and waits until the robot reports it done. Gripper
+  // events become the points' gripper angles. Each state report is checked against the plan
+  // for the desync alarm while it runs. Returns the number of points run.
+  Result<int> run_trajectory(const JointTrajectory& trajectory, double timeout_s = 0.0);
+  Status set_gripper(bool closed);
+  Status jog(protocol::Axis axis, double delta);
+  Status stop();
+  // Desync alarms raised during trajectories since connect.
+  int desync_alarms() const { return desync_alarms_.load(); }
+
+  // --- virtual robot ----------------------------------------------------------------------
+  Status sim_mode(protocol::SimMode mode);
+  Result<int> spawn_cube(CubeColor color, double x_m, double y_m);
+  Status reset_scene();
+  Result<std::vector<protocol::ObjectPose>> objects();
+  Result<std::string> shoot(int width_px = 0, int height_px = 0);
+  Result<transport::GripOutcome> sim_grasp(bool close);
+  Result<protocol::SimState> sim_state();
+  // Runs `trajectory` in the simulator (simulate mode): streams joint targets at its pace
+  // (`speed` times real time), grasps and releases at its events, and records the simulated
+  // joints as virtual samples. Returns when the last target is sent and the robot settled.
+  Status simulate_trajectory(const JointTrajectory& trajectory, double speed = 1.0);
+
+  // Link counters for reports and the progress line.
+  transport::LinkCounters serial_counters() const;
+  transport::LinkCounters sim_counters() const;
+
+ private:
+  Hub(const RobotModel& model, const HubOptions& options, TwinDb* db);
+  void on_robot_packet(protocol::SerialFromDevice&& msg, const transport::RxPacket& rx);
+  void on_device_state(const protocol::DeviceState& st, const transport::RxPacket& rx);
+  void forward_to_sim(const PhysicalState& ps);
+  void add_sample(SampleSource source, double t_s, std::int64_t seq, const JointVector& q,
+                  double grip_deg);
+  Result<protocol::DeviceEvent> wait_event(protocol::DeviceEventCode code, double timeout_s,
+                                           std::uint64_t after);
+  Status check(const char* what, Result<transport::RobotChannel::Reply> r);
+
+  RobotModel model_;
+  HubOptions options_;
+  TwinDb* db_;
+  std::shared_ptr<transport::IoThread> io_;
+  std::unique_ptr<transport::SerialLink> serial_;
+  std::unique_ptr<transport::TcpClient> tcp_;
+  std::unique_ptr<transport::RobotChannel> robot_;
+  std::unique_ptr<transport::SimChannel> sim_;
+  std::unique_ptr<transport::Twin> statements_;  // the paper's control statements
+
+  mutable std::mutex mu_;  // guards everything below and db_ writes
+  std::condition_variable cv_;
+  PhysicalState physical_;
+  std::uint64_t state_count_ = 0;
+  std::deque<std::pair<std::uint64_t, protocol::DeviceEvent>> events_;  // (serial no., event)
+  std::uint64_t event_count_ = 0;
+  std::int64_t run_ = 0;
+  std::int64_t run_start_us_ = 0;
+  bool mirror_ = false;
+  bool sim_grip_closed_ = false;
+  MirrorCounters mirror_counters_;
+  double latency_sum_ms_ = 0.0;
+  std::optional<std::uint16_t> last_seq_;
+  // expected joints during a trajectory, for the desync alarm
+  const JointTrajectory* expected_ = nullptr;
+  std::int64_t expected_start_us_ = 0;
+  std::atomic<int> desync_alarms_{0};
+  int desync_over_ = 0;
+};
+
+}  // namespace scaratwin

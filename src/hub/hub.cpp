@@ -1,0 +1,509 @@
+#include "scaratwin/hub/hub.hpp"
+
+#include <chrono>
+#include <cmath>
+#include <thread>
+
+#include <fmt/format.h>
+
+#include "scaratwin/core/units.hpp"
+#include "scaratwin/hub/analysis.hpp"
+
+namespace scaratwin {
+
+namespace pr = protocol;
+namespace tr = transport;
+using std::chrono::milliseconds;
+
+namespace {
+
+constexpr int kHubError = 80;
+
+milliseconds ms(double s) { return milliseconds(static_cast<long long>(std::llround(s * 1000))); }
+
+Error hub_error(std::string message) { return Error{kHubError, std::move(message)}; }
+
+}  // namespace
+
+Hub::Hub(const RobotModel& model, const HubOptions& options, TwinDb* db)
+    : model_(model), options_(options), db_(db) {}
+
+Hub::~Hub() {
+  // statements and channels first (they hold the links' handlers), then the links, then the
+  // io thread.
+  statements_.reset();
+  robot_.reset();
+  sim_.reset();
+  serial_.reset();
+  tcp_.reset();
+  io_.reset();
+  if (db_ != nullptr) (void)db_->flush();
+}
+
+Result<std::unique_ptr<Hub>> Hub::connect(const RobotModel& model, const HubOptions& o,
+                                            TwinDb* db) {
+  std::unique_ptr<Hub> t(new Hub(model, o, db));
+  t->io_ = tr::IoThread::create("scaratwin-hub");
+  tr::SerialOptions so;
+  so.device = o.serial_device;
+  so.baud = o.baud;
+  auto serial = tr::SerialLink::create(so, t->io_);
+  if (!serial) return serial.error();
+  t->serial_ = std::move(*serial);
+  tr::TcpClientOptions to;
+  to.host = o.sim_host;
+  to.port = o.sim_port;
+  auto tcp = tr::TcpClient::create(to, t->io_);
+  if (!tcp) return tcp.error();
+  t->tcp_ = std::move(*tcp);
+  if (Status s = t->serial_->wait_connected(ms(o.hello_timeout_s)); !s) {
+    return hub_error(fmt::format("physical robot: cannot open {}: {}", o.serial_device,
+                                 s.error().message));
+  }
+  if (Status s = t->tcp_->wait_connected(ms(o.hello_timeout_s)); !s) {
+    return hub_error(fmt::format("virtual robot: no simulator at {}:{}: {}", o.sim_host,
+                                 o.sim_port, s.error().message));
+  }
+  t->robot_ = std::make_unique<tr::RobotChannel>(*t->serial_, tr::robot_channel_defaults());
+  t->sim_ = std::make_unique<tr::SimChannel>(*t->tcp_);
+  t->statements_ = std::make_unique<tr::Twin>(t->model_, t->robot_.get(), t->sim_.get());
+  Hub* raw = t.get();
+  t->robot_->set_unsolicited_handler(
+      [raw](pr::SerialFromDevice&& m, const tr::RxPacket& rx) { raw->on_robot_packet(std::move(m), rx); });
+
+  // hellos: a real board may still be in its bootloader, so retry until the timeout.
+  const auto deadline = std::chrono::steady_clock::now() + ms(o.hello_timeout_s);
+  for (;;) {
+    auto r = t->robot_->request(pr::Hello{}, milliseconds(500));
+    if (r) {
+      const auto* hi = std::get_if<pr::PeerHello>(&r->last());
+      if (hi == nullptr || hi->version != pr::kProtocolVersion) {
+        return hub_error("physical robot: unexpected hello reply (protocol version mismatch?)");
+      }
+      break;
+    }
+    if (std::chrono::steady_clock::now() > deadline) {
+      return hub_error(fmt::format("physical robot on {} did not answer hello within {} s: {}",
+                                   o.serial_device, o.hello_timeout_s, r.error().message));
+    }
+  }
+  auto hi = t->sim_->request(pr::Hello{}, ms(o.hello_timeout_s));
+  if (!hi) return hub_error(fmt::format("simulator hello: {}", hi.error().message));
+  auto sr = t->robot_->request(pr::SetReportRate{o.report_rate_hz}, milliseconds(1000));
+  if (!sr) return hub_error(fmt::format("set report rate: {}", sr.error().message));
+  return t;
+}
+
+// --- runs -----------------------------------------------------------------------------------
+
+Result<std::int64_t> Hub::begin_run(const std::string& kind, const std::string& label,
+                                     std::int64_t parent, std::int64_t ref) {
+  std::lock_guard<std::mutex> lock(mu_);
+  run_start_us_ = tr::steady_now_us();
+  if (db_ == nullptr) return ++run_;
+  auto r = db_->begin_run(kind, label, parent, ref);
+  if (!r) return r.error();
+  run_ = *r;
+  return run_;
+}
+
+Status Hub::end_run(bool ok) {
+  std::lock_guard<std::mutex> lock(mu_);
+  if (db_ == nullptr || run_ == 0) return Ok{};
+  const double dur = static_cast<double>(tr::steady_now_us() - run_start_us_) / 1e6;
+  return db_->end_run(run_, ok ? "ok" : "failed", dur);
+}
+
+std::int64_t Hub::current_run() const {
+  std::lock_guard<std::mutex> lock(mu_);
+  return run_;
+}
+
+double Hub::run_time_s() const {
+  std::lock_guard<std::mutex> lock(mu_);
+  return static_cast<double>(tr::steady_now_us() - run_start_us_) / 1e6;
+}
+
+void Hub::record_event(const std::string& kind, const std::string& detail) {
+  std::lock_guard<std::mutex> lock(mu_);
+  if (db_ != nullptr && run_ != 0) {
+    (void)db_->add_event(run_, static_cast<double>(tr::steady_now_us() - run_start_us_) / 1e6,
+                         kind, detail);
+  }
+}
+
+void Hub::record_metric(const std::string& name, double value, const std::string& unit) {
+  std::lock_guard<std::mutex> lock(mu_);
+  if (db_ != nullptr && run_ != 0) (void)db_->add_metric(run_, name, value, unit);
+}
+
+void Hub::add_sample(SampleSource source, double t_s, std::int64_t seq, const JointVector& q,
+                      double grip_deg) {
+  // mu_ held by the caller.
+  if (db_ != nullptr && run_ != 0) (void)db_->add_sample(run_, source, {t_s, seq, q, grip_deg});
+}
+
+// --- mirror -----------------------------------------------------------------------------------
+
+void Hub::set_mirror(bool on) {
+  std::lock_guard<std::mutex> lock(mu_);
+  mirror_ = on;
+}
+
+MirrorCounters Hub::mirror_counters() const {
+  std::lock_guard<std::mutex> lock(mu_);
+  MirrorCounters c = mirror_counters_;
+  c.lost = robot_ ? robot_->lost_packets() : 0;
+  return c;
+}
+
+void Hub::on_robot_packet(pr::SerialFromDevice&& msg, const tr::RxPacket& rx) {
+  if (const auto* st = std::get_if<pr::DeviceState>(&msg)) {
+    on_device_state(*st, rx);
+  } else if (const auto* ev = std::get_if<pr::DeviceEvent>(&msg)) {
+    std::lock_guard<std::mutex> lock(mu_);
+    events_.emplace_back(++event_count_, *ev);
+    if (events_.size() > 256) events_.pop_front();
+    if (db_ != nullptr && run_ != 0) {
+      (void)db_->add_event(run_, static_cast<double>(rx.steady_us - run_start_us_) / 1e6,
+                           "robot",
+                           fmt::format("EV {} {}", static_cast<int>(ev->event), ev->value.value_or(0)));
+    }
+    cv_.notify_all();
+  } else if (std::holds_alternative<pr::PeerHello>(msg)) {
+    record_event("robot", "unsolicited hello: the robot reset");
+  }
+}
+
+void Hub::on_device_state(const pr::DeviceState& st, const tr::RxPacket& rx) {
+  PhysicalState ps;
+  ps.raw = st;
+  ps.q = motors_to_joints(model_,
+                          {static_cast<double>(st.steps[0]), static_cast<double>(st.steps[1]),
+                           static_cast<double>(st.steps[2])},
+                          rad_to_deg(st.wrist_rad));
+  ps.grip_deg = rad_to_deg(st.grip_rad);
+  ps.rx_steady_us = rx.steady_us;
+  ps.valid = true;
+  bool mirror;
+  {
+    std::lock_guard<std::mutex> lock(mu_);
+    physical_ = ps;
+    ++state_count_;
+    add_sample(SampleSource::kPhysical, static_cast<double>(rx.steady_us - run_start_us_) / 1e6,
+               st.seq, ps.q, ps.grip_deg);
+    // desync alarm against the trajectory being run.
+    if (expected_ != nullptr && expected_start_us_ == 0) {
+      // the plan's clock starts when the robot starts to move: align the first report that
+      // left the start pose with the plan time at which the plan leaves it as far.
+      const JointVector& q0 = expected_->samples.front().q;
+      const double moved = tool_distance(model_, q0, ps.q);
+      if (moved > 2e-4) {
+        double t_plan = 0.0;
+        for (const JointSample& s : expected_->samples) {
+          t_plan = s.t_s;
+          if (tool_distance(model_, q0, s.q) >= moved) break;
+        }
+        expected_start_us_ = rx.steady_us - static_cast<std::int64_t>(t_plan * 1e6);
+      }
+    }
+    if (expected_ != nullptr && expected_start_us_ != 0) {
+      const JointVector want =
+          sample_at(*expected_, static_cast<double>(rx.steady_us - expected_start_us_) / 1e6);
+      const double dev = tool_distance(model_, want, ps.q);
+      desync_over_ = dev > options_.desync_threshold_m ? desync_over_ + 1 : 0;
+      if (desync_over_ == options_.desync_persist) {
+        ++desync_alarms_;
+        if (db_ != nullptr && run_ != 0) {
+          (void)db_->add_event(run_, static_cast<double>(rx.steady_us - run_start_us_) / 1e6,
+                               "desync", fmt::format("tool {:.1f} mm off the plan", m_to_mm(dev)));
+        }
+      }
+    }
+    cv_.notify_all();
+    mirror = mirror_;
+  }
+  if (mirror) forward_to_sim(ps);
+}
+
+void Hub::forward_to_sim(const PhysicalState& ps) {
+  pr::JointData jd;
+  jd.seq = ps.raw.seq;
+  jd.t_us = static_cast<std::uint32_t>(ps.rx_steady_us);
+  jd.q = ps.q;
+  const std::int64_t rx_us = ps.rx_steady_us;
+  const std::uint32_t device_t = ps.raw.t_us;
+  const JointVector q = ps.q;
+  const double grip = ps.grip_deg;
+  {
+    std::lock_guard<std::mutex> lock(mu_);
+    ++mirror_counters_.frames;
+  }
+  (void)sim_->post(
+      jd,
+      [this, rx_us, device_t, q, grip, seq = jd.seq](Result<tr::SimChannel::Reply>&& r) {
+        if (!r) return;
+        const auto* ja = std::get_if<pr::JointApplied>(&r->last());
+        if (ja == nullptr) return;
+        // the apply time is the simulator's steady clock modulo 2^32: unwrap it near rx_us.
+        const auto delta = static_cast<std::int32_t>(ja->t_apply_us - static_cast<std::uint32_t>(rx_us));
+        const std::int64_t apply_us = rx_us + delta;
+        std::lock_guard<std::mutex> lock(mu_);
+        const double lat_ms = static_cast<double>(apply_us - rx_us) / 1000.0;
+        ++mirror_counters_.applied;
+        latency_sum_ms_ += lat_ms;
+        mirror_counters_.last_latency_ms = lat_ms;
+        mirror_counters_.mean_latency_ms = latency_sum_ms_ / static_cast<double>(mirror_counters_.applied);
+        if (db_ != nullptr && run_ != 0) {
+          (void)db_->add_latency(run_, {seq, device_t, rx_us, apply_us});
+          add_sample(SampleSource::kVirtual, static_cast<double>(apply_us - run_start_us_) / 1e6,
+                     seq, q, grip);
+        }
+      },
+      milliseconds(2000));
+  // the simulator's gripper follows the robot's gripper servo.
+  const double mid = 0.5 * (model_.motors.gripper_open_deg + model_.motors.gripper_closed_deg);
+  const bool closed = (model_.motors.gripper_closed_deg > model_.motors.gripper_open_deg)
+                          ? grip > mid
+                          : grip < mid;
+  bool changed = false;
+  {
+    std::lock_guard<std::mutex> lock(mu_);
+    if (closed != sim_grip_closed_) {
+      sim_grip_closed_ = closed;
+      changed = true;
+    }
+  }
+  if (changed) (void)sim_->post(pr::Grasp{closed});
+}
+
+// --- physical robot ---------------------------------------------------------------------------
+
+PhysicalState Hub::physical() const {
+  std::lock_guard<std::mutex> lock(mu_);
+  return physical_;
+}
+
+Result<PhysicalState> Hub::fresh_physical(double timeout_s) {
+  std::unique_lock<std::mutex> lock(mu_);
+  const std::uint64_t n = state_count_;
+  if (!cv_.wait_for(lock, ms(timeout_s), [&] { return state_count_ > n; })) {
+    return hub_error(fmt::format("no state report from the robot within {} s", timeout_s));
+  }
+  return physical_;
+}
+
+Status Hub::check(const char* what, Result<tr::RobotChannel::Reply> r) {
+  if (!r) return hub_error(fmt::format("robot {}: {}", what, r.error().message));
+  return Ok{};
+}
+
+Result<pr::DeviceEvent> Hub::wait_event(pr::DeviceEventCode code, double timeout_s,
+                                         std::uint64_t after) {
+  std::unique_lock<std::mutex> lock(mu_);
+  std::optional<pr::DeviceEvent> found;
+  const auto pred = [&] {
+    for (const auto& [n, ev] : events_) {
+      if (n > after && ev.event == code) {
+        found = ev;
+        return true;
+      }
+    }
+    return false;
+  };
+  if (!cv_.wait_for(lock, ms(timeout_s), pred)) {
+    return hub_error(fmt::format("robot: event {} did not come within {:.0f} s",
+                                 static_cast<int>(code), timeout_s));
+  }
+  return *found;
+}
+
+Status Hub::wait_idle(double timeout_s) {
+  std::unique_lock<std::mutex> lock(mu_);
+  const std::uint64_t n = state_count_;
+  const auto idle = [&] {
+    return state_count_ > n && (physical_.raw.flags &
+                                (pr::state_flags::kMoving | pr::state_flags::kTrajectory)) == 0;
+  };
+  if (!cv_.wait_for(lock, ms(timeout_s), idle)) {
+    return hub_error(fmt::format("the robot is still moving after {:.0f} s", timeout_s));
+  }
+  return Ok{};
+}
+
+Status Hub::home(double timeout_s) {
+  std::uint64_t mark;
+  {
+    std::lock_guard<std::mutex> lock(mu_);
+    mark = event_count_;
+  }
+  if (Status s = check("home", robot_->request(pr::Home{}, milliseconds(1000))); !s) return s;
+  auto ev = wait_event(pr::DeviceEventCode::kHomed, timeout_s, mark);
+  if (!ev) return ev.error();
+  return Ok{};
+}
+
+Status Hub::set_gripper(bool closed) {
+  auto r = closed ? statements_->grip(tr::Robots::kPhysical)
+                  : statements_->release(tr::Robots::kPhysical);
+  if (!r) return hub_error(fmt::format("robot gripper: {}", r.error().message));
+  return Ok{};
+}
+
+Status Hub::jog(pr::Axis axis, double delta) {
+  return check("jog", robot_->request(pr::Jog{axis, delta}, milliseconds(1000)));
+}
+
+Status Hub::stop() {
+  if (Status s = robot_->send_realtime(pr::Realtime::kStop); !s) return s;
+  return Ok{};
+}
+
+Result<int> Hub::run_trajectory(const JointTrajectory& traj, double timeout_s) {
+  if (traj.samples.size() < 2) return 0;
+  if (Status s = check_limits(model_, traj); !s) {
+    return hub_error(fmt::format("trajectory refused before anything moved: {}", s.error().message));
+  }
+  // a trajectory starts from rest: let a jog or the previous move finish.
+  if (Status s = wait_idle(60.0); !s) return s.error();
+  std::uint64_t mark;
+  {
+    std::lock_guard<std::mutex> lock(mu_);
+    mark = event_count_;
+    expected_ = &traj;
+    expected_start_us_ = 0;
+    desync_over_ = 0;
+  }
+  const auto clear_expected = [&] {
+    std::lock_guard<std::mutex> lock(mu_);
+    expected_ = nullptr;
+  };
+  // numberTran3: TB, then the points under the device's credit.
+  auto load = statements_->load_trajectory(traj);
+  if (!load) {
+    clear_expected();
+    (void)stop();
+    return hub_error(fmt::format("robot trajectory load: {}", load.error().message));
+  }
+  const double wait_s = timeout_s > 0 ? timeout_s : traj.duration_s() + 15.0;
+  auto done = wait_event(pr::DeviceEventCode::kTrajectoryDone, wait_s, mark);
+  clear_expected();
+  if (!done) return done.error();
+  return load->points;
+}
+
+// --- virtual robot ----------------------------------------------------------------------------
+
+namespace {
+
+template <class T>
+Result<T> sim_reply(const char* what, Result<tr::SimChannel::Reply> r) {
+  if (!r) return hub_error(fmt::format("simulator {}: {}", what, r.error().message));
+  if (const T* v = std::get_if<T>(&r->last())) return *v;
+  return hub_error(fmt::format("simulator {}: unexpected reply", what));
+}
+
+}  // namespace
+
+Status Hub::sim_mode(pr::SimMode mode) {
+  auto r = sim_reply<pr::Ack>("mode", sim_->request(pr::SetMode{mode}, milliseconds(2000)));
+  if (!r) return r.error();
+  return Ok{};
+}
+
+Result<int> Hub::spawn_cube(CubeColor color, double x_m, double y_m) {
+  auto r = sim_reply<pr::Ack>("spawn", sim_->request(pr::SpawnCube{color, x_m, y_m},
+                                                     milliseconds(2000)));
+  if (!r) return r.error();
+  return r->value.value_or(-1);
+}
+
+Status Hub::reset_scene() {
+  auto r = sim_reply<pr::Ack>("reset", sim_->request(pr::ResetScene{}, milliseconds(2000)));
+  if (!r) return r.error();
+  std::lock_guard<std::mutex> lock(mu_);
+  sim_grip_closed_ = false;
+  return Ok{};
+}
+
+Result<std::vector<pr::ObjectPose>> Hub::objects() {
+  auto r = statements_->object_positions();
+  if (!r) return hub_error(fmt::format("simulator objects: {}", r.error().message));
+  return *r;
+}
+
+Result<std::string> Hub::shoot(int width_px, int height_px) {
+  auto r = statements_->take_picture({}, width_px, height_px);
+  if (!r) return hub_error(fmt::format("simulator camera: {}", r.error().message));
+  std::string png(r->begin(), r->end());
+  std::lock_guard<std::mutex> lock(mu_);
+  if (db_ != nullptr && run_ != 0) {
+    (void)db_->add_image(run_, static_cast<double>(tr::steady_now_us() - run_start_us_) / 1e6,
+                         "camera.png", png);
+  }
+  return png;
+}
+
+Result<tr::GripOutcome> Hub::sim_grasp(bool close) {
+  auto r = close ? statements_->grip(tr::Robots::kVirtual)
+                 : statements_->release(tr::Robots::kVirtual);
+  if (!r) return hub_error(fmt::format("simulator gripper: {}", r.error().message));
+  std::lock_guard<std::mutex> lock(mu_);
+  sim_grip_closed_ = close;
+  return *r;
+}
+
+Result<pr::SimState> Hub::sim_state() {
+  return sim_reply<pr::SimState>("state", sim_->request(pr::QueryState{}, milliseconds(2000)));
+}
+
+Status Hub::simulate_trajectory(const JointTrajectory& traj, double speed) {
+  if (traj.samples.empty()) return Ok{};
+  if (!(speed > 0.0)) return hub_error(fmt::format("speed {} must be > 0", speed));
+  const auto start = std::chrono::steady_clock::now();
+  size_t next_event = 0;
+  const auto record_state = [&]() -> Status {
+    auto st = sim_state();
+    if (!st) return st.error();
+    std::lock_guard<std::mutex> lock(mu_);
+    add_sample(SampleSource::kVirtual, static_cast<double>(tr::steady_now_us() - run_start_us_) / 1e6,
+               st->seq, st->q, st->grip_closed ? model_.motors.gripper_closed_deg
+                                                : model_.motors.gripper_open_deg);
+    return Ok{};
+  };
+  for (size_t k = 0; k < traj.samples.size(); ++k) {
+    const JointSample& s = traj.samples[k];
+    std::this_thread::sleep_until(start + std::chrono::microseconds(
+                                              static_cast<long long>(s.t_s / speed * 1e6)));
+    pr::JointTargets tj;
+    tj.seq = static_cast<std::uint16_t>(k);
+    tj.t_us = static_cast<std::uint32_t>(tr::steady_now_us());
+    tj.q = s.q;
+    {
+      std::lock_guard<std::mutex> lock(mu_);
+      add_sample(SampleSource::kPlanned, static_cast<double>(tr::steady_now_us() - run_start_us_) / 1e6,
+                 static_cast<std::int64_t>(k), s.q, 0.0);
+    }
+    auto ja = sim_reply<pr::JointApplied>("joint targets", sim_->request(tj, milliseconds(2000)));
+    if (!ja) return ja.error();
+    while (next_event < traj.events.size() && traj.events[next_event].t_s <= s.t_s + 1e-9) {
+      const bool close = traj.events[next_event].action == GripperAction::kGrip;
+      auto g = sim_grasp(close);
+      if (!g) return g.error();
+      record_event("sim-gripper", close ? fmt::format("grasp: holding cube {}", g->held_id)
+                                        : std::string("release"));
+      ++next_event;
+    }
+    if (k % 2 == 0 || k + 1 == traj.samples.size()) {
+      if (Status st = record_state(); !st) return st;
+    }
+  }
+  // let the servos settle on the last target.
+  std::this_thread::sleep_for(milliseconds(static_cast<long long>(300 / speed)));
+  return record_state();
+}
+
+tr::LinkCounters Hub::serial_counters() const { return serial_->counters(); }
+tr::LinkCounters Hub::sim_counters() const { return tcp_->counters(); }
+
+}  // namespace scaratwin

@@ -1,0 +1,165 @@
+#include "scaratwin/hub/tasks.hpp"
+
+#include <chrono>
+#include <cmath>
+#include <thread>
+
+#include <fmt/format.h>
+
+#include "scaratwin/core/units.hpp"
+
+namespace scaratwin {
+namespace {
+
+constexpr int kTaskError = 90;
+
+Error task_error(std::string message) { return Error{kTaskError, std::move(message)}; }
+
+double distance(const ToolPose& a, const ToolPose& b) {
+  return std::hypot(a.x_m - b.x_m, a.y_m - b.y_m, a.z_m - b.z_m);
+}
+
+// A tool heading that grasps a cube of heading `cube_yaw` (any multiple of 90 degrees from
+// it: the cube is square) and that the wrist can reach at both `xy` poses.
+Result<double> grasp_yaw(const RobotModel& model, const JointVector& seed, double cube_yaw,
+                         const std::vector<ToolPose>& poses) {
+  std::string why;
+  for (int k = 0; k < 4; ++k) {
+    const double yaw = wrap_angle(cube_yaw + k * kPi / 2);
+    bool ok = true;
+    JointVector s = seed;
+    for (ToolPose p : poses) {
+      p.yaw_rad = yaw;
+      auto q = inverse(model, p, s);
+      if (!q) {
+        ok = false;
+        why = q.error().message;
+        break;
+      }
+      s = *q;
+    }
+    if (ok) return yaw;
+  }
+  return task_error(fmt::format("no gripper heading reaches the cube: {}", why));
+}
+
+}  // namespace
+
+Result<ControlFigures> move_to(Hub& hub, const ToolPose& target, int samples) {
+  const RobotModel& model = hub.model();
+  auto now = hub.fresh_physical(2.0);
+  if (!now) return now.error();
+  auto goal = inverse(model, target, now->q);
+  if (!goal) return task_error(fmt::format("target unreachable: {}", goal.error().message));
+  auto traj = plan_quintic(model, now->q, *goal, {samples, 0.0});
+  if (!traj) return traj.error();
+  hub.record_event("control", fmt::format("move to ({:.4f}, {:.4f}, {:.4f}) m, {} samples, "
+                                          "{:.2f} s",
+                                          target.x_m, target.y_m, target.z_m, samples,
+                                          traj->duration_s()));
+  auto points = hub.run_trajectory(*traj);
+  if (!points) return points.error();
+  // let the last reports through the mirror.
+  auto phys = hub.fresh_physical(2.0);
+  if (!phys) return phys.error();
+  std::this_thread::sleep_for(std::chrono::milliseconds(100));
+  auto sim = hub.sim_state();
+  if (!sim) return sim.error();
+  ControlFigures f;
+  f.target = target;
+  f.physical = forward(model, phys->q);
+  f.virtual_ = forward(model, sim->q);
+  f.target_physical_m = distance(target, f.physical);
+  f.target_virtual_m = distance(target, f.virtual_);
+  f.virtual_physical_m = distance(f.virtual_, f.physical);
+  f.points = *points;
+  return f;
+}
+
+Result<ControlFigures> move_to_position(Hub& hub, double x, double y, double z, double yaw) {
+  auto now = hub.fresh_physical(2.0);
+  if (!now) return now.error();
+  std::string why;
+  for (int k = 0; k < 24; ++k) {
+    const double cand = wrap_angle(yaw + (k % 2 ? -1 : 1) * ((k + 1) / 2) * deg_to_rad(15));
+    auto q = inverse(hub.model(), {x, y, z, cand}, now->q);
+    if (q) return move_to(hub, {x, y, z, cand});
+    why = q.error().message;
+  }
+  return task_error(fmt::format("target ({}, {}, {}) m unreachable with any heading: {}", x, y,
+                                z, why));
+}
+
+Result<SortPlan> plan_sorting(const RobotModel& model, const JointVector& start,
+                              const std::vector<SortItem>& items, double speed_scale) {
+  SortPlan plan;
+  plan.items = items;
+  plan.trajectory.samples.push_back(JointSample{0.0, start, {}, {}});
+  JointVector q = start;
+  const SceneModel& sc = model.scene;
+  for (size_t i = 0; i < items.size(); ++i) {
+    const SortItem& it = items[i];
+    const Tray& tray = sc.trays[static_cast<int>(it.color)];
+    ToolPose pick{it.x_m, it.y_m, sc.grasp_z_m, 0.0};
+    // release a little above the tray floor: the cube drops a few millimetres.
+    ToolPose place{tray.x_m, tray.y_m, sc.grasp_z_m + 0.004, 0.0};
+    ToolPose above_pick = pick, above_place = place;
+    above_pick.z_m += sc.approach_height_m;
+    above_place.z_m += sc.approach_height_m;
+    auto yaw = grasp_yaw(model, q, it.yaw_rad, {above_pick, pick});
+    if (!yaw) {
+      return task_error(fmt::format("{} cube at ({:.3f}, {:.3f}): {}", color_name(it.color),
+                                    it.x_m, it.y_m, yaw.error().message));
+    }
+    pick.yaw_rad = *yaw;
+    auto place_yaw = grasp_yaw(model, q, *yaw, {above_place, place});
+    if (!place_yaw) {
+      return task_error(fmt::format("{} tray: {}", color_name(it.color),
+                                    place_yaw.error().message));
+    }
+    place.yaw_rad = *place_yaw;
+    PickPlaceRequest r;
+    r.pick = pick;
+    r.place = place;
+    r.approach_height_m = sc.approach_height_m;
+    r.speed_scale = speed_scale;
+    r.accel_scale = speed_scale;
+    auto seg = plan_pick_place(model, q, r);
+    if (!seg) {
+      return task_error(fmt::format("{} cube at ({:.3f}, {:.3f}): {}", color_name(it.color),
+                                    it.x_m, it.y_m, seg.error().message));
+    }
+    append(plan.trajectory, *seg);
+    q = plan.trajectory.samples.back().q;
+  }
+  if (Status s = check_limits(model, plan.trajectory); !s) return s.error();
+  return plan;
+}
+
+Result<std::vector<SortItem>> recognise_cubes(Hub& hub, const RobotModel& model) {
+  auto png = hub.shoot();
+  if (!png) return png.error();
+  auto img = decode_png(*png);
+  if (!img) return img.error();
+  std::vector<SortItem> out;
+  for (const CubeDetection& d : detect_cubes(*img, model)) {
+    out.push_back({d.color, d.x_m, d.y_m, 0.0});
+  }
+  hub.record_event("vision", fmt::format("{} cubes recognised", out.size()));
+  return out;
+}
+
+int cubes_in_trays(const RobotModel& model, const std::vector<protocol::ObjectPose>& objects) {
+  int n = 0;
+  for (const protocol::ObjectPose& o : objects) {
+    const Tray& t = model.scene.trays[static_cast<int>(o.color)];
+    const double half = 0.5 * t.size_m;
+    if (std::abs(o.x_m - t.x_m) <= half && std::abs(o.y_m - t.y_m) <= half &&
+        o.z_m < model.scene.table_z_m + 2.0 * model.scene.cube_size_m) {
+      ++n;
+    }
+  }
+  return n;
+}
+
+}  // namespace scaratwin
