@@ -7,7 +7,9 @@
 #include <sys/socket.h>
 #include <unistd.h>
 
+#include <atomic>
 #include <chrono>
+#include <mutex>
 #include <random>
 #include <thread>
 
@@ -378,6 +380,67 @@ TEST(Tcp, BadOptionsAreRefusedWithTheValue) {
   ASSERT_FALSE(busy);
   EXPECT_EQ(busy.error().code, static_cast<int>(TransportError::kOpenFailed));
   EXPECT_NE(busy.error().message.find(std::to_string(same.port)), std::string::npos);
+}
+
+}  // namespace
+}  // namespace scaratwin::transport
+
+namespace scaratwin::transport {
+namespace {
+
+// Bytes leave in the order send() was called, even when the calls come from the io thread
+// (inside a handler) and from another thread at the same time: Asio runs a handler posted
+// from inside another handler only after that one returns, so ordering by posting alone
+// lets a later send from another thread overtake an earlier one from the io thread (this
+// reordered trajectory points on the serial link before it was fixed).
+TEST(Tcp, SendOrderHoldsAcrossTheIoThreadAndOtherThreads) {
+  auto io = IoThread::create();
+  auto server = TcpServer::create(ephemeral_server(), io);
+  ASSERT_TRUE(server);
+  TcpServer* s = server->get();
+  std::mutex order;  // decides the order of the numbers
+  int next = 0;
+  std::atomic<int> handler_sent{-1};
+  std::atomic<int> main_sent{-1};
+  constexpr int kRounds = 200;
+  s->set_packet_handler([&](RxPacket&&) {
+    int mine;
+    {
+      std::lock_guard<std::mutex> lock(order);
+      mine = next++;
+      (void)s->send(std::to_string(mine) + "\n");
+    }
+    handler_sent = mine;
+    // stay inside the handler until the other thread has sent the following number.
+    const auto until = std::chrono::steady_clock::now() + 2s;
+    while (main_sent.load() < mine + 1 && std::chrono::steady_clock::now() < until) {
+      std::this_thread::yield();
+    }
+  });
+  const int fd = raw_connect(s->port());
+  ASSERT_GE(fd, 0);
+  ASSERT_TRUE(s->wait_connected(kWait));
+  std::thread other([&] {
+    for (int r = 0; r < kRounds; ++r) {
+      const auto until = std::chrono::steady_clock::now() + 5s;
+      while (handler_sent.load() < 2 * r && std::chrono::steady_clock::now() < until) {
+        std::this_thread::yield();
+      }
+      std::lock_guard<std::mutex> lock(order);
+      const int mine = next++;
+      (void)s->send(std::to_string(mine) + "\n");
+      main_sent = mine;
+    }
+  });
+  for (int r = 0; r < kRounds; ++r) {
+    write_all(fd, "GO,\n");
+    for (int k = 0; k < 2; ++k) {
+      const std::string line = read_line(fd);
+      ASSERT_EQ(line, std::to_string(2 * r + k)) << "round " << r;
+    }
+  }
+  other.join();
+  ::close(fd);
 }
 
 }  // namespace
