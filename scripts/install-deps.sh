@@ -12,6 +12,7 @@ packages=(
   libpng-dev
   gcc-avr avr-libc binutils-avr arduino-core-avr simavr libsimavr-dev libsimavrparts1 libelf-dev
   clang libclang-rt-14-dev
+  chromium
 )
 
 missing=()
