@@ -12,6 +12,8 @@
 #include "scaratwin/core/units.hpp"
 #include "scaratwin/sim/server.hpp"
 #include "scaratwin/sim/world.hpp"
+#include "scaratwin/web/link_monitor.hpp"
+#include "scaratwin/web/web_server.hpp"
 
 namespace {
 
@@ -34,6 +36,9 @@ struct Args {
   double timestep_s = 0.002;
   double duration_s = 0.0;
   double status_s = 0.0;
+  std::string http_bind = "127.0.0.1";
+  int http_port = 8080;
+  std::string web_root;
 };
 
 int fail(const std::string& message, int code = 2) {
@@ -76,6 +81,10 @@ int main(int argc, char** argv) {
       ->capture_default_str();
   app.add_option("--status", a.status_s, "print a status line every N seconds (0: never)")
       ->capture_default_str();
+  app.add_option("--http-port", a.http_port, "browser UI port (0: no UI)")->capture_default_str();
+  app.add_option("--http-bind", a.http_bind, "address the browser UI listens on")
+      ->capture_default_str();
+  app.add_option("--web-root", a.web_root, "folder of the built page (default: the build tree's)");
   CLI11_PARSE(app, argc, argv);
 
   auto robot = load_robot_config_or_default(a.config_path);
@@ -137,13 +146,45 @@ int main(int argc, char** argv) {
   serve.bind_address = a.bind;
   serve.port = static_cast<std::uint16_t>(a.port);
   serve.save_images_dir = a.save_images;
+  web::LinkMonitor link_monitor;
+  serve.on_joint_frame = [&link_monitor](const sim::JointFrame& f) {
+    link_monitor.on_joint_frame(f.seq, f.t_us, f.q, f.applied_us);
+  };
   auto server = sim::SimServer::create(**world, serve);
   if (!server) return fail(server.error().message, 1);
+  // the browser UI: a busy port or a missing page is reported, the simulator runs on
+  std::unique_ptr<web::WebServer> web_ui;
+  if (a.http_port < 0 || a.http_port > 65535) {
+    return fail(fmt::format("--http-port {}: expected 0..65535 (0: no UI)", a.http_port));
+  }
+  if (a.http_port != 0) {
+    web::WebOptions wo_web;
+    wo_web.bind_address = a.http_bind;
+    wo_web.port = static_cast<std::uint16_t>(a.http_port);
+    if (!a.web_root.empty()) wo_web.root_dir = a.web_root;
+    sim::SimServer* srv = server->get();
+    auto ui = web::WebServer::create(**world, wo_web, [&link_monitor, srv, was = false]() mutable {
+      if (const bool now = srv->peer_connected(); now != was) {
+        link_monitor.set_connected(now);  // a new hub starts a new sequence
+        was = now;
+      }
+      return link_monitor.status();
+    });
+    if (ui) {
+      web_ui = std::move(*ui);
+    } else {
+      std::fprintf(stderr, "scaratwin-sim: no browser UI: %s\n", ui.error().message.c_str());
+    }
+  }
   std::signal(SIGINT, on_signal);
   std::signal(SIGTERM, on_signal);
   (*world)->start();
   std::printf("scaratwin-sim: listening on %s:%u (speed %s, mode %s, camera %s)\n", a.bind.c_str(),
               (*server)->port(), a.speed.c_str(), a.mode.c_str(), wo.camera ? "on" : "off");
+  if (web_ui) {
+    std::printf("scaratwin-sim: browser UI on http://%s:%u/\n", a.http_bind.c_str(),
+                web_ui->port());
+  }
   std::fflush(stdout);
 
   const auto start = std::chrono::steady_clock::now();
@@ -168,6 +209,7 @@ int main(int argc, char** argv) {
       std::fflush(stdout);
     }
   }
+  web_ui.reset();
   (*server).reset();
   (*world)->stop();
   return 0;
