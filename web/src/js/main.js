@@ -195,6 +195,7 @@ $('shot-img').addEventListener('click', () => {
   $('modal').hidden = false;
 });
 $('modal').addEventListener('click', () => { $('modal').hidden = true; });
+$('shot-close').addEventListener('click', () => { $('shot').hidden = true; });
 
 for (const b of document.querySelectorAll('[data-view]')) b.addEventListener('click', () => view.setView(b.dataset.view));
 $('show-path').addEventListener('change', (e) => view.showPath(e.target.checked));
