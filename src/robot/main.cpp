@@ -116,6 +116,7 @@ int main(int argc, char** argv) {
   std::signal(SIGTERM, on_signal);
   std::signal(SIGPIPE, SIG_IGN);
   Status st = e.run(g_stop);
+  std::printf("final %s\n", e.truth_line().c_str());  // the truth when the run ended
   if (!opt.pty_symlink.empty()) ::unlink(opt.pty_symlink.c_str());
   if (!st) {
     std::fprintf(stderr, "scaratwin-robot: %s\n", st.error().message.c_str());
