@@ -53,11 +53,11 @@ class Ticker {
         const MirrorCounters c = hub_.mirror_counters();
         const PhysicalState p = hub_.physical();
         const ToolPose tool = forward(hub_.model(), p.q);
-        fmt::print("    {:<10} {:5.1f} s  tool ({:6.1f}, {:6.1f}, {:6.1f}) mm  mirror {} frames, "
-                   "{} lost, latency {:.2f} ms\n",
-                   phase_, std::chrono::duration<double>(last_ - start).count(),
-                   m_to_mm(tool.x_m), m_to_mm(tool.y_m), m_to_mm(tool.z_m), c.applied, c.lost,
-                   c.last_latency_ms);
+        fmt::print(
+            "    {:<10} {:5.1f} s  tool ({:6.1f}, {:6.1f}, {:6.1f}) mm  mirror {} frames, "
+            "{} lost, latency {:.2f} ms\n",
+            phase_, std::chrono::duration<double>(last_ - start).count(), m_to_mm(tool.x_m),
+            m_to_mm(tool.y_m), m_to_mm(tool.z_m), c.applied, c.lost, c.last_latency_ms);
         std::fflush(stdout);
       }
     });
@@ -90,7 +90,8 @@ std::vector<SortItem> cube_layout(unsigned seed) {
     for (int tries = 0; tries < 1000; ++tries) {
       const SortItem it{static_cast<CubeColor>(c), x(rng), y(rng), 0.0};
       bool clear = true;
-      for (const SortItem& o : out) clear = clear && std::hypot(o.x_m - it.x_m, o.y_m - it.y_m) > 0.045;
+      for (const SortItem& o : out)
+        clear = clear && std::hypot(o.x_m - it.x_m, o.y_m - it.y_m) > 0.045;
       if (clear) {
         out.push_back(it);
         break;
@@ -166,11 +167,13 @@ Result<DemoOutcome> run_phases(Hub& hub, TwinDb& db, const DemoArgs& a, std::int
       hub.record_metric(metric::kLatencyMeanMs, lf.device_to_sim_ms.mean, "ms");
       hub.record_metric(metric::kLatencyP99Ms, lf.device_to_sim_ms.p99, "ms");
       hub.record_metric(metric::kHubToSimMeanMs, lf.hub_to_sim_ms.mean, "ms");
-      hub.record_metric(metric::kLostFrames, static_cast<double>(after.lost - before.lost), "frames");
-      fmt::print("    mirror: {} frames, {} lost, latency robot->virtual mean {:.2f} ms, p99 "
-                 "{:.2f} ms (paper: 74 ms)\n",
-                 lf.device_to_sim_ms.count, after.lost - before.lost, lf.device_to_sim_ms.mean,
-                 lf.device_to_sim_ms.p99);
+      hub.record_metric(metric::kLostFrames, static_cast<double>(after.lost - before.lost),
+                        "frames");
+      fmt::print(
+          "    mirror: {} frames, {} lost, latency robot->virtual mean {:.2f} ms, p99 "
+          "{:.2f} ms (paper: 74 ms)\n",
+          lf.device_to_sim_ms.count, after.lost - before.lost, lf.device_to_sim_ms.mean,
+          lf.device_to_sim_ms.p99);
     }
     (void)hub.end_run(true);
   }
@@ -194,10 +197,11 @@ Result<DemoOutcome> run_phases(Hub& hub, TwinDb& db, const DemoArgs& a, std::int
     hub.record_metric(metric::kToolErrTargetVirtMm, m_to_mm(f->target_virtual_m), "mm");
     hub.record_metric(metric::kToolErrVirtPhysMm, m_to_mm(f->virtual_physical_m), "mm");
     out.virt_phys_mm = m_to_mm(f->virtual_physical_m);
-    fmt::print("    control: {} points; tool error target->physical {:.3f} mm, "
-               "target->virtual {:.3f} mm, virtual->physical {:.3f} mm (paper: 2.01-3.83 mm)\n",
-               f->points, m_to_mm(f->target_physical_m), m_to_mm(f->target_virtual_m),
-               m_to_mm(f->virtual_physical_m));
+    fmt::print(
+        "    control: {} points; tool error target->physical {:.3f} mm, "
+        "target->virtual {:.3f} mm, virtual->physical {:.3f} mm (paper: 2.01-3.83 mm)\n",
+        f->points, m_to_mm(f->target_physical_m), m_to_mm(f->target_virtual_m),
+        m_to_mm(f->virtual_physical_m));
     // lift clear of the table before the next task.
     auto up = move_to_position(hub, cube.x_m, cube.y_m,
                                model.scene.grasp_z_m + model.scene.approach_height_m,
@@ -232,16 +236,17 @@ Result<DemoOutcome> run_phases(Hub& hub, TwinDb& db, const DemoArgs& a, std::int
                  m_to_mm(it.x_m), m_to_mm(it.y_m));
     }
     if (seen->size() != layout.size()) {
-      return Error{95, fmt::format("colour recognition found {} cubes, expected {}",
-                                   seen->size(), layout.size())};
+      return Error{95, fmt::format("colour recognition found {} cubes, expected {}", seen->size(),
+                                   layout.size())};
     }
     auto start = hub.fresh_physical(2.0);
     if (!start) return start.error();
     auto p = plan_sorting(model, start->q, *seen);
     if (!p) return p.error();
     plan = *p;
-    fmt::print("    plan: {} samples, {:.1f} s, {} gripper events\n", plan.trajectory.samples.size(),
-               plan.trajectory.duration_s(), plan.trajectory.events.size());
+    fmt::print("    plan: {} samples, {:.1f} s, {} gripper events\n",
+               plan.trajectory.samples.size(), plan.trajectory.duration_s(),
+               plan.trajectory.events.size());
     if (Status s = hub.simulate_trajectory(plan.trajectory); !s) return s.error();
     std::this_thread::sleep_for(500ms);
     auto objs = hub.objects();
@@ -281,14 +286,15 @@ Result<DemoOutcome> run_phases(Hub& hub, TwinDb& db, const DemoArgs& a, std::int
     auto pred = db.samples(prediction, SampleSource::kVirtual);
     auto phys = db.samples(*run, SampleSource::kPhysical);
     if (pred && phys && !pred->empty() && !phys->empty()) {
-      const Deviation d =
-          compare_runs(model, *pred, *phys, motion_start(model, *phys) - motion_start(model, *pred));
+      const Deviation d = compare_runs(model, *pred, *phys,
+                                       motion_start(model, *phys) - motion_start(model, *pred));
       hub.record_metric(metric::kReplayToolMaxMm, m_to_mm(d.tool_max_m), "mm");
       hub.record_metric(metric::kReplayToolRmsMm, m_to_mm(d.tool_rms_m), "mm");
       hub.record_metric(metric::kReplayFinalMm, m_to_mm(d.tool_final_m), "mm");
-      fmt::print("    replay vs prediction: tool deviation max {:.2f} mm, RMS {:.2f} mm, final "
-                 "{:.3f} mm\n",
-                 m_to_mm(d.tool_max_m), m_to_mm(d.tool_rms_m), m_to_mm(d.tool_final_m));
+      fmt::print(
+          "    replay vs prediction: tool deviation max {:.2f} mm, RMS {:.2f} mm, final "
+          "{:.3f} mm\n",
+          m_to_mm(d.tool_max_m), m_to_mm(d.tool_rms_m), m_to_mm(d.tool_final_m));
     }
     fmt::print("    replay: {} of {} cubes in their trays, {} desync alarms\n", out.in_trays_replay,
                layout.size(), hub.desync_alarms());
@@ -315,7 +321,8 @@ int run_demo(const CommonOptions& common, const DemoArgs& a) {
 
   // the virtual robot.
   std::vector<std::string> sim_args{"--port", "0", "--http-port", std::to_string(a.http_port)};
-  if (!common.config_path.empty()) sim_args.insert(sim_args.end(), {"--config", common.config_path});
+  if (!common.config_path.empty())
+    sim_args.insert(sim_args.end(), {"--config", common.config_path});
   auto sim = ChildProcess::start(sibling_executable("scaratwin-sim"), sim_args, out / "sim.log");
   if (!sim) {
     std::fprintf(stderr, "scaratwin demo: %s\n", sim.error().message.c_str());
@@ -341,8 +348,8 @@ int run_demo(const CommonOptions& common, const DemoArgs& a) {
     if (!common.config_path.empty()) {
       robot_args.insert(robot_args.end(), {"--config", common.config_path});
     }
-    auto r = ChildProcess::start(sibling_executable("scaratwin-robot"), robot_args,
-                                 out / "robot.log");
+    auto r =
+        ChildProcess::start(sibling_executable("scaratwin-robot"), robot_args, out / "robot.log");
     if (!r) {
       std::fprintf(stderr, "scaratwin demo: %s\n", r.error().message.c_str());
       return kExitFailure;
@@ -413,8 +420,9 @@ int run_demo(const CommonOptions& common, const DemoArgs& a) {
 void add_demo_command(CLI::App& app, CommonOptions& common, Runner& run) {
   auto a = std::make_shared<DemoArgs>();
   CLI::App* cmd = app.add_subcommand(
-      "demo", "the whole twin, no hardware needed: simulator + emulated robot + hub; mirror, "
-              "control, colour-sorting prediction and its physical replay; database and report");
+      "demo",
+      "the whole twin, no hardware needed: simulator + emulated robot + hub; mirror, "
+      "control, colour-sorting prediction and its physical replay; database and report");
   cmd->add_option("--serial", a->serial,
                   "drive a real Arduino on this serial port instead of the emulator "
                   "(e.g. /dev/ttyACM0)");

@@ -20,8 +20,8 @@ struct ReportArgs {
 
 Result<std::unique_ptr<TwinDb>> open_existing(const std::string& path) {
   if (!std::filesystem::exists(path)) {
-    return Error{2, fmt::format("no database '{}' (run `scaratwin demo` first, or pass --db)",
-                                path)};
+    return Error{2,
+                 fmt::format("no database '{}' (run `scaratwin demo` first, or pass --db)", path)};
   }
   return TwinDb::open(path);
 }
@@ -45,12 +45,10 @@ int run_report(const CommonOptions& common, const ReportArgs& a) {
       if (r.parent == 0) run = r.id;
     }
   }
-  const std::string out = a.out.empty() ? fmt::format("{}/report-{}.html",
-                                                      std::filesystem::path(a.db_path)
-                                                          .parent_path()
-                                                          .string(),
-                                                      run)
-                                        : a.out;
+  const std::string out =
+      a.out.empty() ? fmt::format("{}/report-{}.html",
+                                  std::filesystem::path(a.db_path).parent_path().string(), run)
+                    : a.out;
   if (Status s = write_report(**db, *model, run, out); !s) {
     std::fprintf(stderr, "scaratwin report: %s\n", s.error().message.c_str());
     return kExitFailure;
@@ -83,8 +81,8 @@ int run_runs(const ReportArgs& a) {
     const std::time_t t = static_cast<std::time_t>(r.started_unix_s);
     char when[32];
     std::strftime(when, sizeof when, "%Y-%m-%d %H:%M:%S", std::gmtime(&t));
-    fmt::print("{:>5} {:>6} {:<11} {:<8} {:>9.1f}  {:<20} {}\n", r.id, r.parent, r.kind,
-               r.status, r.duration_s, when, r.label);
+    fmt::print("{:>5} {:>6} {:<11} {:<8} {:>9.1f}  {:<20} {}\n", r.id, r.parent, r.kind, r.status,
+               r.duration_s, when, r.label);
   }
   return kExitOk;
 }

@@ -42,8 +42,7 @@ void add_link_options(CLI::App& cmd, LinkArgs& l) {
 }
 
 int with_hub(const CommonOptions& common, const LinkArgs& l, const std::string& kind,
-             const std::string& label,
-             const std::function<Status(Hub&)>& body) {
+             const std::string& label, const std::function<Status(Hub&)>& body) {
   auto model = load_model(common);
   if (!model) return kExitUsage;
   HubOptions o;
@@ -52,8 +51,10 @@ int with_hub(const CommonOptions& common, const LinkArgs& l, const std::string& 
     if (const char* env = std::getenv("SCARATWIN_SERIAL")) o.serial_device = env;
   }
   if (o.serial_device.empty()) {
-    std::fprintf(stderr, "scaratwin %s: no robot: pass --serial DEVICE or set SCARATWIN_SERIAL "
-                         "(start one with `scaratwin robot`)\n", kind.c_str());
+    std::fprintf(stderr,
+                 "scaratwin %s: no robot: pass --serial DEVICE or set SCARATWIN_SERIAL "
+                 "(start one with `scaratwin robot`)\n",
+                 kind.c_str());
     return kExitUsage;
   }
   const size_t colon = l.sim.rfind(':');
@@ -173,7 +174,8 @@ void add_statement_commands(CLI::App& app, CommonOptions& common, Runner& run) {
   auto m = std::make_shared<StatementArgs>();
   m->name = "mirror";
   CLI::App* mirror = app.add_subcommand(
-      "mirror", "mirror the physical robot in the virtual one for a while; prints latency and loss");
+      "mirror",
+      "mirror the physical robot in the virtual one for a while; prints latency and loss");
   mirror->group("Statements");
   mirror->add_option("--seconds", m->seconds, "how long")->capture_default_str();
   add_link_options(*mirror, *links);

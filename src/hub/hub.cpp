@@ -41,7 +41,7 @@ Hub::~Hub() {
 }
 
 Result<std::unique_ptr<Hub>> Hub::connect(const RobotModel& model, const HubOptions& o,
-                                            TwinDb* db) {
+                                          TwinDb* db) {
   std::unique_ptr<Hub> t(new Hub(model, o, db));
   t->io_ = tr::IoThread::create("scaratwin-hub");
   tr::SerialOptions so;
@@ -57,19 +57,23 @@ Result<std::unique_ptr<Hub>> Hub::connect(const RobotModel& model, const HubOpti
   if (!tcp) return tcp.error();
   t->tcp_ = std::move(*tcp);
   if (Status s = t->serial_->wait_connected(ms(o.hello_timeout_s)); !s) {
-    return hub_error(fmt::format("physical robot: cannot open {}: {}", o.serial_device,
-                                 s.error().message));
+    return hub_error(
+        fmt::format("physical robot: cannot open {}: {}", o.serial_device, s.error().message));
   }
   if (Status s = t->tcp_->wait_connected(ms(o.hello_timeout_s)); !s) {
-    return hub_error(fmt::format("virtual robot: no simulator at {}:{}: {}", o.sim_host,
-                                 o.sim_port, s.error().message));
+    return hub_error(fmt::format("virtual robot: no simulator at {}:{}: {}", o.sim_host, o.sim_port,
+                                 s.error().message));
   }
   t->robot_ = std::make_unique<tr::RobotChannel>(*t->serial_, tr::robot_channel_defaults());
   t->sim_ = std::make_unique<tr::SimChannel>(*t->tcp_);
-  t->statements_ = std::make_unique<tr::Twin>(t->model_, t->robot_.get(), t->sim_.get());
+  tr::TwinOptions so_statements;
+  so_statements.reply_timeout = ms(o.reply_timeout_s);
+  t->statements_ =
+      std::make_unique<tr::Twin>(t->model_, t->robot_.get(), t->sim_.get(), so_statements);
   Hub* raw = t.get();
-  t->robot_->set_unsolicited_handler(
-      [raw](pr::SerialFromDevice&& m, const tr::RxPacket& rx) { raw->on_robot_packet(std::move(m), rx); });
+  t->robot_->set_unsolicited_handler([raw](pr::SerialFromDevice&& m, const tr::RxPacket& rx) {
+    raw->on_robot_packet(std::move(m), rx);
+  });
 
   // hellos: a real board may still be in its bootloader, so retry until the timeout.
   const auto deadline = std::chrono::steady_clock::now() + ms(o.hello_timeout_s);
@@ -97,7 +101,7 @@ Result<std::unique_ptr<Hub>> Hub::connect(const RobotModel& model, const HubOpti
 // --- runs -----------------------------------------------------------------------------------
 
 Result<std::int64_t> Hub::begin_run(const std::string& kind, const std::string& label,
-                                     std::int64_t parent, std::int64_t ref) {
+                                    std::int64_t parent, std::int64_t ref) {
   std::lock_guard<std::mutex> lock(mu_);
   run_start_us_ = tr::steady_now_us();
   if (db_ == nullptr) return ++run_;
@@ -127,8 +131,8 @@ double Hub::run_time_s() const {
 void Hub::record_event(const std::string& kind, const std::string& detail) {
   std::lock_guard<std::mutex> lock(mu_);
   if (db_ != nullptr && run_ != 0) {
-    (void)db_->add_event(run_, static_cast<double>(tr::steady_now_us() - run_start_us_) / 1e6,
-                         kind, detail);
+    (void)db_->add_event(run_, static_cast<double>(tr::steady_now_us() - run_start_us_) / 1e6, kind,
+                         detail);
   }
 }
 
@@ -138,7 +142,7 @@ void Hub::record_metric(const std::string& name, double value, const std::string
 }
 
 void Hub::add_sample(SampleSource source, double t_s, std::int64_t seq, const JointVector& q,
-                      double grip_deg) {
+                     double grip_deg) {
   // mu_ held by the caller.
   if (db_ != nullptr && run_ != 0) (void)db_->add_sample(run_, source, {t_s, seq, q, grip_deg});
 }
@@ -165,9 +169,9 @@ void Hub::on_robot_packet(pr::SerialFromDevice&& msg, const tr::RxPacket& rx) {
     events_.emplace_back(++event_count_, *ev);
     if (events_.size() > 256) events_.pop_front();
     if (db_ != nullptr && run_ != 0) {
-      (void)db_->add_event(run_, static_cast<double>(rx.steady_us - run_start_us_) / 1e6,
-                           "robot",
-                           fmt::format("EV {} {}", static_cast<int>(ev->event), ev->value.value_or(0)));
+      (void)db_->add_event(
+          run_, static_cast<double>(rx.steady_us - run_start_us_) / 1e6, "robot",
+          fmt::format("EV {} {}", static_cast<int>(ev->event), ev->value.value_or(0)));
     }
     cv_.notify_all();
   } else if (std::holds_alternative<pr::PeerHello>(msg)) {
@@ -246,14 +250,16 @@ void Hub::forward_to_sim(const PhysicalState& ps) {
         const auto* ja = std::get_if<pr::JointApplied>(&r->last());
         if (ja == nullptr) return;
         // the apply time is the simulator's steady clock modulo 2^32: unwrap it near rx_us.
-        const auto delta = static_cast<std::int32_t>(ja->t_apply_us - static_cast<std::uint32_t>(rx_us));
+        const auto delta =
+            static_cast<std::int32_t>(ja->t_apply_us - static_cast<std::uint32_t>(rx_us));
         const std::int64_t apply_us = rx_us + delta;
         std::lock_guard<std::mutex> lock(mu_);
         const double lat_ms = static_cast<double>(apply_us - rx_us) / 1000.0;
         ++mirror_counters_.applied;
         latency_sum_ms_ += lat_ms;
         mirror_counters_.last_latency_ms = lat_ms;
-        mirror_counters_.mean_latency_ms = latency_sum_ms_ / static_cast<double>(mirror_counters_.applied);
+        mirror_counters_.mean_latency_ms =
+            latency_sum_ms_ / static_cast<double>(mirror_counters_.applied);
         if (db_ != nullptr && run_ != 0) {
           (void)db_->add_latency(run_, {seq, device_t, rx_us, apply_us});
           add_sample(SampleSource::kVirtual, static_cast<double>(apply_us - run_start_us_) / 1e6,
@@ -263,9 +269,8 @@ void Hub::forward_to_sim(const PhysicalState& ps) {
       milliseconds(2000));
   // the simulator's gripper follows the robot's gripper servo.
   const double mid = 0.5 * (model_.motors.gripper_open_deg + model_.motors.gripper_closed_deg);
-  const bool closed = (model_.motors.gripper_closed_deg > model_.motors.gripper_open_deg)
-                          ? grip > mid
-                          : grip < mid;
+  const bool closed =
+      (model_.motors.gripper_closed_deg > model_.motors.gripper_open_deg) ? grip > mid : grip < mid;
   bool changed = false;
   {
     std::lock_guard<std::mutex> lock(mu_);
@@ -299,7 +304,7 @@ Status Hub::check(const char* what, Result<tr::RobotChannel::Reply> r) {
 }
 
 Result<pr::DeviceEvent> Hub::wait_event(pr::DeviceEventCode code, double timeout_s,
-                                         std::uint64_t after) {
+                                        std::uint64_t after) {
   std::unique_lock<std::mutex> lock(mu_);
   std::optional<pr::DeviceEvent> found;
   const auto pred = [&] {
@@ -322,8 +327,8 @@ Status Hub::wait_idle(double timeout_s) {
   std::unique_lock<std::mutex> lock(mu_);
   const std::uint64_t n = state_count_;
   const auto idle = [&] {
-    return state_count_ > n && (physical_.raw.flags &
-                                (pr::state_flags::kMoving | pr::state_flags::kTrajectory)) == 0;
+    return state_count_ > n &&
+           (physical_.raw.flags & (pr::state_flags::kMoving | pr::state_flags::kTrajectory)) == 0;
   };
   if (!cv_.wait_for(lock, ms(timeout_s), idle)) {
     return hub_error(fmt::format("the robot is still moving after {:.0f} s", timeout_s));
@@ -362,7 +367,8 @@ Status Hub::stop() {
 Result<int> Hub::run_trajectory(const JointTrajectory& traj, double timeout_s) {
   if (traj.samples.size() < 2) return 0;
   if (Status s = check_limits(model_, traj); !s) {
-    return hub_error(fmt::format("trajectory refused before anything moved: {}", s.error().message));
+    return hub_error(
+        fmt::format("trajectory refused before anything moved: {}", s.error().message));
   }
   // a trajectory starts from rest: let a jog or the previous move finish.
   if (Status s = wait_idle(60.0); !s) return s.error();
@@ -378,8 +384,23 @@ Result<int> Hub::run_trajectory(const JointTrajectory& traj, double timeout_s) {
     std::lock_guard<std::mutex> lock(mu_);
     expected_ = nullptr;
   };
-  // numberTran3: TB, then the points under the device's credit.
-  auto load = statements_->load_trajectory(traj);
+  // numberTran3: TB, then the points under the device's credit. The robot interpolates
+  // between points, so points closer than min_point_dt_s are thinned out (keeping the ends
+  // and every gripper event): fewer packets, more slack against a busy host.
+  JointTrajectory sent;
+  sent.events = traj.events;
+  size_t next_event = 0;
+  for (size_t k = 0; k < traj.samples.size(); ++k) {
+    const JointSample& smp = traj.samples[k];
+    bool keep = k == 0 || k + 1 == traj.samples.size() ||
+                smp.t_s - sent.samples.back().t_s >= options_.min_point_dt_s - 1e-9;
+    while (next_event < traj.events.size() && traj.events[next_event].t_s <= smp.t_s + 1e-9) {
+      keep = true;
+      ++next_event;
+    }
+    if (keep) sent.samples.push_back(smp);
+  }
+  auto load = statements_->load_trajectory(sent);
   if (!load) {
     clear_expected();
     (void)stop();
@@ -412,8 +433,8 @@ Status Hub::sim_mode(pr::SimMode mode) {
 }
 
 Result<int> Hub::spawn_cube(CubeColor color, double x_m, double y_m) {
-  auto r = sim_reply<pr::Ack>("spawn", sim_->request(pr::SpawnCube{color, x_m, y_m},
-                                                     milliseconds(2000)));
+  auto r = sim_reply<pr::Ack>("spawn",
+                              sim_->request(pr::SpawnCube{color, x_m, y_m}, milliseconds(2000)));
   if (!r) return r.error();
   return r->value.value_or(-1);
 }
@@ -445,8 +466,8 @@ Result<std::string> Hub::shoot(int width_px, int height_px) {
 }
 
 Result<tr::GripOutcome> Hub::sim_grasp(bool close) {
-  auto r = close ? statements_->grip(tr::Robots::kVirtual)
-                 : statements_->release(tr::Robots::kVirtual);
+  auto r =
+      close ? statements_->grip(tr::Robots::kVirtual) : statements_->release(tr::Robots::kVirtual);
   if (!r) return hub_error(fmt::format("simulator gripper: {}", r.error().message));
   std::lock_guard<std::mutex> lock(mu_);
   sim_grip_closed_ = close;
@@ -466,22 +487,23 @@ Status Hub::simulate_trajectory(const JointTrajectory& traj, double speed) {
     auto st = sim_state();
     if (!st) return st.error();
     std::lock_guard<std::mutex> lock(mu_);
-    add_sample(SampleSource::kVirtual, static_cast<double>(tr::steady_now_us() - run_start_us_) / 1e6,
-               st->seq, st->q, st->grip_closed ? model_.motors.gripper_closed_deg
-                                                : model_.motors.gripper_open_deg);
+    add_sample(SampleSource::kVirtual,
+               static_cast<double>(tr::steady_now_us() - run_start_us_) / 1e6, st->seq, st->q,
+               st->grip_closed ? model_.motors.gripper_closed_deg : model_.motors.gripper_open_deg);
     return Ok{};
   };
   for (size_t k = 0; k < traj.samples.size(); ++k) {
     const JointSample& s = traj.samples[k];
-    std::this_thread::sleep_until(start + std::chrono::microseconds(
-                                              static_cast<long long>(s.t_s / speed * 1e6)));
+    std::this_thread::sleep_until(
+        start + std::chrono::microseconds(static_cast<long long>(s.t_s / speed * 1e6)));
     pr::JointTargets tj;
     tj.seq = static_cast<std::uint16_t>(k);
     tj.t_us = static_cast<std::uint32_t>(tr::steady_now_us());
     tj.q = s.q;
     {
       std::lock_guard<std::mutex> lock(mu_);
-      add_sample(SampleSource::kPlanned, static_cast<double>(tr::steady_now_us() - run_start_us_) / 1e6,
+      add_sample(SampleSource::kPlanned,
+                 static_cast<double>(tr::steady_now_us() - run_start_us_) / 1e6,
                  static_cast<std::int64_t>(k), s.q, 0.0);
     }
     auto ja = sim_reply<pr::JointApplied>("joint targets", sim_->request(tj, milliseconds(2000)));

@@ -13,10 +13,11 @@ namespace scaratwin {
 namespace {
 
 std::string describe(const ControlFigures& f) {
-  return fmt::format("tool at ({:.4f}, {:.4f}, {:.4f}) m; error to target {:.3f} mm (physical), "
-                     "{:.3f} mm (virtual)",
-                     f.physical.x_m, f.physical.y_m, f.physical.z_m, m_to_mm(f.target_physical_m),
-                     m_to_mm(f.target_virtual_m));
+  return fmt::format(
+      "tool at ({:.4f}, {:.4f}, {:.4f}) m; error to target {:.3f} mm (physical), "
+      "{:.3f} mm (virtual)",
+      f.physical.x_m, f.physical.y_m, f.physical.z_m, m_to_mm(f.target_physical_m),
+      m_to_mm(f.target_virtual_m));
 }
 
 Result<std::string> run_planned(Hub& hub, Result<JointTrajectory> traj) {
@@ -130,10 +131,9 @@ Status execute_at(Hub& hub, const Statement& st, const StatementLog& log,
   auto r = execute_one(hub, st);
   if (!r) {
     hub.record_event("error", r.error().message);
-    return Error{r.error().code, where.empty()
-                                     ? fmt::format("{}: {}", st.source, r.error().message)
-                                     : fmt::format("{}: {}: {}", where, st.source,
-                                                   r.error().message)};
+    return Error{r.error().code,
+                 where.empty() ? fmt::format("{}: {}", st.source, r.error().message)
+                               : fmt::format("{}: {}: {}", where, st.source, r.error().message)};
   }
   if (log) log(st, *r);
   return Ok{};

@@ -53,10 +53,10 @@ Result<ControlFigures> move_to(Hub& hub, const ToolPose& target, int samples) {
   if (!goal) return task_error(fmt::format("target unreachable: {}", goal.error().message));
   auto traj = plan_quintic(model, now->q, *goal, {samples, 0.0});
   if (!traj) return traj.error();
-  hub.record_event("control", fmt::format("move to ({:.4f}, {:.4f}, {:.4f}) m, {} samples, "
-                                          "{:.2f} s",
-                                          target.x_m, target.y_m, target.z_m, samples,
-                                          traj->duration_s()));
+  hub.record_event("control",
+                   fmt::format("move to ({:.4f}, {:.4f}, {:.4f}) m, {} samples, "
+                               "{:.2f} s",
+                               target.x_m, target.y_m, target.z_m, samples, traj->duration_s()));
   auto points = hub.run_trajectory(*traj);
   if (!points) return points.error();
   // let the last reports through the mirror.
@@ -86,8 +86,8 @@ Result<ControlFigures> move_to_position(Hub& hub, double x, double y, double z, 
     if (q) return move_to(hub, {x, y, z, cand});
     why = q.error().message;
   }
-  return task_error(fmt::format("target ({}, {}, {}) m unreachable with any heading: {}", x, y,
-                                z, why));
+  return task_error(
+      fmt::format("target ({}, {}, {}) m unreachable with any heading: {}", x, y, z, why));
 }
 
 Result<SortPlan> plan_sorting(const RobotModel& model, const JointVector& start,
@@ -108,14 +108,14 @@ Result<SortPlan> plan_sorting(const RobotModel& model, const JointVector& start,
     above_place.z_m += sc.approach_height_m;
     auto yaw = grasp_yaw(model, q, it.yaw_rad, {above_pick, pick});
     if (!yaw) {
-      return task_error(fmt::format("{} cube at ({:.3f}, {:.3f}): {}", color_name(it.color),
-                                    it.x_m, it.y_m, yaw.error().message));
+      return task_error(fmt::format("{} cube at ({:.3f}, {:.3f}): {}", color_name(it.color), it.x_m,
+                                    it.y_m, yaw.error().message));
     }
     pick.yaw_rad = *yaw;
     auto place_yaw = grasp_yaw(model, q, *yaw, {above_place, place});
     if (!place_yaw) {
-      return task_error(fmt::format("{} tray: {}", color_name(it.color),
-                                    place_yaw.error().message));
+      return task_error(
+          fmt::format("{} tray: {}", color_name(it.color), place_yaw.error().message));
     }
     place.yaw_rad = *place_yaw;
     PickPlaceRequest r;
@@ -126,8 +126,8 @@ Result<SortPlan> plan_sorting(const RobotModel& model, const JointVector& start,
     r.accel_scale = speed_scale;
     auto seg = plan_pick_place(model, q, r);
     if (!seg) {
-      return task_error(fmt::format("{} cube at ({:.3f}, {:.3f}): {}", color_name(it.color),
-                                    it.x_m, it.y_m, seg.error().message));
+      return task_error(fmt::format("{} cube at ({:.3f}, {:.3f}): {}", color_name(it.color), it.x_m,
+                                    it.y_m, seg.error().message));
     }
     append(plan.trajectory, *seg);
     q = plan.trajectory.samples.back().q;

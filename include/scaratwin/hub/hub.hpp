@@ -44,27 +44,29 @@ struct HubOptions {
   unsigned baud = 115200;
   std::string sim_host = "127.0.0.1";
   std::uint16_t sim_port = 55016;
-  int report_rate_hz = 100;         // robot state reports while connected
-  double hello_timeout_s = 5.0;     // a real board spends ~2 s in its bootloader
+  int report_rate_hz = 100;           // robot state reports while connected
+  double hello_timeout_s = 5.0;       // a real board spends ~2 s in its bootloader
   double desync_threshold_m = 0.003;  // tool deviation that raises the desync alarm
   int desync_persist = 5;             // consecutive reports above it
+  double min_point_dt_s = 0.02;       // trajectory points sent to the robot at most this dense
+  double reply_timeout_s = 3.0;       // a request without reply is a lost link after this
 };
 
 // The robot as its last state report showed it.
 struct PhysicalState {
   protocol::DeviceState raw;
-  JointVector q{};           // from the actual step counts
-  double grip_deg = 0.0;     // gripper servo output
+  JointVector q{};        // from the actual step counts
+  double grip_deg = 0.0;  // gripper servo output
   std::int64_t rx_steady_us = 0;
   bool valid = false;
 };
 
 // Live mirror counters (also shown by the demo's progress line).
 struct MirrorCounters {
-  std::uint64_t frames = 0;       // JD frames forwarded
-  std::uint64_t applied = 0;      // JA replies received
-  std::uint64_t lost = 0;         // ST sequence gaps
-  double last_latency_ms = 0.0;   // hub receive -> simulator applied, last frame
+  std::uint64_t frames = 0;      // JD frames forwarded
+  std::uint64_t applied = 0;     // JA replies received
+  std::uint64_t lost = 0;        // ST sequence gaps
+  double last_latency_ms = 0.0;  // hub receive -> simulator applied, last frame
   double mean_latency_ms = 0.0;
 };
 
@@ -73,7 +75,7 @@ class Hub {
   // Connects both links, exchanges hellos and starts the robot's state reports. `db` may be
   // null (nothing recorded); it must outlive the twin.
   static Result<std::unique_ptr<Hub>> connect(const RobotModel& model, const HubOptions& options,
-                                               TwinDb* db);
+                                              TwinDb* db);
   ~Hub();
   Hub(const Hub&) = delete;
   Hub& operator=(const Hub&) = delete;

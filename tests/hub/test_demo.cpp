@@ -1,0 +1,189 @@
+// End to end, as a user runs it: `scaratwin demo` with the simulator and our firmware in the
+// AVR emulator as separate processes over TCP and a pty; then the database, the report and
+// the CSV it left. And a script with an error: it stops at that line and moves nothing after.
+#include <unistd.h>
+
+#include <chrono>
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <map>
+#include <sstream>
+
+#include <fmt/format.h>
+#include <gtest/gtest.h>
+
+#include "scaratwin/config/robot_config.hpp"
+#include "scaratwin/core/units.hpp"
+#include "scaratwin/hub/process.hpp"
+#include "scaratwin/hub/report.hpp"
+#include "scaratwin/hub/twin_db.hpp"
+#include "scaratwin/kinematics/kinematics.hpp"
+
+namespace scaratwin {
+namespace {
+
+namespace fs = std::filesystem;
+using namespace std::chrono_literals;
+
+const fs::path kBin = SCARATWIN_BIN_DIR;
+
+fs::path fresh_dir(const char* name) {
+  fs::path p = fs::temp_directory_path() / fmt::format("scaratwin-{}-{}", name, getpid());
+  fs::remove_all(p);
+  fs::create_directories(p);
+  return p;
+}
+
+std::string slurp(const fs::path& p) {
+  std::ifstream in(p);
+  std::stringstream ss;
+  ss << in.rdbuf();
+  return ss.str();
+}
+
+double metric_of(TwinDb& db, int64_t run, const std::string& name) {
+  auto m = db.metrics(run);
+  if (!m) return NAN;
+  for (const MetricRecord& r : *m) {
+    if (r.name == name) return r.value;
+  }
+  return NAN;
+}
+
+TEST(Demo, SortsEveryCubeAndRecordsTheTwin) {
+  const fs::path out = fresh_dir("demo");
+  auto demo = ChildProcess::start(
+      kBin / "scaratwin", {"demo", "--out", out.string(), "--http-port", "0"}, out / "demo.log");
+  ASSERT_TRUE(demo) << demo.error().message;
+  auto done = (*demo)->wait_for_line("demo passed", 900s);
+  const int status = (*demo)->stop(60s);
+  ASSERT_TRUE(done) << done.error().message;
+  EXPECT_EQ(status, 0) << (*demo)->output_tail(40);
+
+  auto db = TwinDb::open(out / "twin.db");
+  ASSERT_TRUE(db);
+  auto runs = (*db)->runs();
+  ASSERT_TRUE(runs);
+  std::map<std::string, RunInfo> by_kind;
+  for (const RunInfo& r : *runs) by_kind[r.kind] = r;
+  for (const char* kind : {"demo", "home", "mirror", "control", "prediction", "replay"}) {
+    ASSERT_TRUE(by_kind.count(kind)) << kind;
+    EXPECT_EQ(by_kind[kind].status, "ok") << kind;
+  }
+  // mirror: no lost frames, every frame's latency recorded.
+  const int64_t mirror = by_kind["mirror"].id;
+  EXPECT_EQ(metric_of(**db, mirror, metric::kLostFrames), 0.0);
+  EXPECT_GT(*(*db)->count("latencies", mirror), 200);
+  EXPECT_LT(metric_of(**db, mirror, metric::kHubToSimMeanMs), 50.0);
+  // control: the virtual robot ends where the physical one is.
+  const int64_t control = by_kind["control"].id;
+  EXPECT_LT(metric_of(**db, control, metric::kToolErrVirtPhysMm), 1.0);
+  EXPECT_LT(metric_of(**db, control, metric::kToolErrTargetPhysMm), 1.0);
+  // prediction then replay: every cube in its tray, no frame lost.
+  const int64_t replay = by_kind["replay"].id;
+  EXPECT_EQ(metric_of(**db, by_kind["prediction"].id, "prediction_cubes_in_tray"), 3.0);
+  EXPECT_EQ(metric_of(**db, replay, metric::kCubesInTray), 3.0);
+  EXPECT_EQ(metric_of(**db, replay, metric::kLostFrames), 0.0);
+  EXPECT_EQ(by_kind["replay"].ref, by_kind["prediction"].id);
+  auto phys = (*db)->samples(replay, SampleSource::kPhysical);
+  auto virt = (*db)->samples(replay, SampleSource::kVirtual);
+  ASSERT_TRUE(phys && virt);
+  EXPECT_GT(phys->size(), 1000u);
+  EXPECT_GT(virt->size(), 1000u);
+  // the camera shot is kept.
+  EXPECT_GE(*(*db)->count("images", by_kind["prediction"].id), 1);
+
+  // the report and its plots, the CSV export.
+  const std::string html = slurp(out / "report.html");
+  EXPECT_NE(html.find("Our figures beside the paper"), std::string::npos);
+  size_t svgs = 0;
+  for (size_t p = html.find("<svg"); p != std::string::npos; p = html.find("<svg", p + 1)) ++svgs;
+  EXPECT_GE(svgs, 20u);
+  EXPECT_NE(html.find("prediction vs physical replay"), std::string::npos);
+  EXPECT_TRUE(fs::exists(out / "csv" / "samples.csv"));
+  EXPECT_GT(fs::file_size(out / "csv" / "samples.csv"), 10000u);
+}
+
+// A script whose third line cannot run: the error names the line and the robot never gets
+// the fourth line's move.
+TEST(Script, StopsAtTheFailingLineAndMovesNothingAfter) {
+  const fs::path dir = fresh_dir("script");
+  auto robot = ChildProcess::start(kBin / "scaratwin-robot",
+                                   {"--pty-link", (dir / "robot.pty").string()}, dir / "robot.log");
+  ASSERT_TRUE(robot) << robot.error().message;
+  auto sim = ChildProcess::start(
+      kBin / "scaratwin-sim", {"--port", "0", "--http-port", "0", "--no-camera"}, dir / "sim.log");
+  ASSERT_TRUE(sim) << sim.error().message;
+  ASSERT_TRUE((*robot)->wait_for_line("pty: ", 60s));
+  auto listening = (*sim)->wait_for_line("listening on", 60s);
+  ASSERT_TRUE(listening);
+  const size_t paren = listening->find(" (");
+  const size_t colon = listening->rfind(':', paren);
+  const std::string port = listening->substr(colon + 1, paren - colon - 1);
+  {
+    std::ofstream s(dir / "bad.txt");
+    s << "# a script with an unreachable target on line 3\n"
+         "home\n"
+         "move 0.5 0.0 -0.02\n"
+         "movej 0.05 -20 30 40\n";
+  }
+  auto run = ChildProcess::start(
+      kBin / "scaratwin",
+      {"run", (dir / "bad.txt").string(), "--serial", (dir / "robot.pty").string(), "--sim",
+       "127.0.0.1:" + port, "--db", (dir / "twin.db").string()},
+      dir / "run.log");
+  ASSERT_TRUE(run);
+  auto err = (*run)->wait_for_line("bad.txt:3", 300s);
+  const int status = (*run)->stop(120s);
+  ASSERT_TRUE(err) << err.error().message;
+  EXPECT_NE(err->find("move 0.5 0.0 -0.02"), std::string::npos) << *err;
+  EXPECT_NE(err->find("beyond the reach"), std::string::npos) << *err;
+  EXPECT_EQ(status, 1);
+  // nothing moved after the failing line: the robot is still where homing left it.
+  auto db = TwinDb::open(dir / "twin.db");
+  ASSERT_TRUE(db);
+  auto runs = (*db)->runs();
+  ASSERT_TRUE(runs && !runs->empty());
+  EXPECT_EQ(runs->back().status, "failed");
+  auto phys = (*db)->samples(runs->back().id, SampleSource::kPhysical);
+  ASSERT_TRUE(phys && phys->size() > 10);
+  const RobotModel model = *load_robot_config(SCARATWIN_CONFIG_FILE);
+  const JointVector last = phys->back().q;
+  EXPECT_NEAR(last[0], model.home[0], 1e-3);
+  EXPECT_NEAR(last[1], model.home[1], deg_to_rad(0.5));
+  EXPECT_NEAR(last[2], model.home[2], deg_to_rad(0.5));
+  (*robot)->stop();
+  (*sim)->stop();
+}
+
+// The C++ example in examples/ against a running simulator and emulated robot.
+TEST(Examples, PickOneSortsACubeFromCpp) {
+  const fs::path dir = fresh_dir("example");
+  auto robot = ChildProcess::start(kBin / "scaratwin-robot",
+                                   {"--pty-link", (dir / "robot.pty").string()}, dir / "robot.log");
+  ASSERT_TRUE(robot) << robot.error().message;
+  auto sim = ChildProcess::start(kBin / "scaratwin-sim", {"--port", "0", "--http-port", "0"},
+                                 dir / "sim.log");
+  ASSERT_TRUE(sim) << sim.error().message;
+  ASSERT_TRUE((*robot)->wait_for_line("pty: ", 60s));
+  auto listening = (*sim)->wait_for_line("listening on", 60s);
+  ASSERT_TRUE(listening);
+  const size_t paren = listening->find(" (");
+  const size_t colon = listening->rfind(':', paren);
+  const std::string port = listening->substr(colon + 1, paren - colon - 1);
+  auto ex = ChildProcess::start(
+      kBin / "pick_one", {(dir / "robot.pty").string(), port, (dir / "picture.png").string()},
+      dir / "ex.log");
+  ASSERT_TRUE(ex);
+  auto done = (*ex)->wait_for_line("cubes in their tray: 1", 300s);
+  const int status = (*ex)->stop(120s);
+  ASSERT_TRUE(done) << done.error().message;
+  EXPECT_EQ(status, 0);
+  EXPECT_GT(fs::file_size(dir / "picture.png"), 1000u);
+  (*robot)->stop();
+  (*sim)->stop();
+}
+
+}  // namespace
+}  // namespace scaratwin
