@@ -33,7 +33,7 @@ struct Args {
   std::string save_images;
   std::string mode = "mirror";
   std::vector<std::string> spawn;
-  double timestep_s = 0.002;
+  double timestep_s = 0.004;
   double duration_s = 0.0;
   double status_s = 0.0;
   std::string http_bind = "127.0.0.1";

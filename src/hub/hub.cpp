@@ -68,6 +68,10 @@ Result<std::unique_ptr<Hub>> Hub::connect(const RobotModel& model, const HubOpti
   t->sim_ = std::make_unique<tr::SimChannel>(*t->tcp_);
   tr::TwinOptions so_statements;
   so_statements.reply_timeout = ms(o.reply_timeout_s);
+  // the robot's periodic reports share the 115200 baud line with the credit polls' replies;
+  // polling every 100 ms keeps its 15-point queue (0.3 s at 20 ms a point) topped up without
+  // crowding the reports out of its transmit buffer.
+  so_statements.credit_poll = std::chrono::milliseconds(100);
   t->statements_ =
       std::make_unique<tr::Twin>(t->model_, t->robot_.get(), t->sim_.get(), so_statements);
   Hub* raw = t.get();
