@@ -282,7 +282,8 @@ Result<DemoOutcome> run_phases(Hub& hub, TwinDb& db, const DemoArgs& a, std::int
     out.in_trays_replay = cubes_in_trays(model, *objs);
     hub.record_metric(metric::kCubesInTray, out.in_trays_replay, "cubes");
     hub.record_metric(metric::kDesyncAlarms, hub.desync_alarms(), "alarms");
-    hub.record_metric(metric::kLostFrames, static_cast<double>(after.lost - before.lost), "frames");
+    hub.record_metric(metric::kReplayLostFrames, static_cast<double>(after.lost - before.lost),
+                      "frames");
     auto pred = db.samples(prediction, SampleSource::kVirtual);
     auto phys = db.samples(*run, SampleSource::kPhysical);
     if (pred && phys && !pred->empty() && !phys->empty()) {

@@ -304,6 +304,9 @@ void read_serial() {
     uint8_t type = g_decoder.push((uint8_t)b, &ev);
     if (type == core::kEventPacket) {
       handle_packet(g_decoder.packet());
+      // one packet per pass: a burst of trajectory points (each planned here) must not hold
+      // the loop past the next state report's deadline.
+      return;
     } else if (type == core::kEventError) {
       reply_er(ev.error, ev.error != core::kErrUnknownCode, ev.detail);
     }

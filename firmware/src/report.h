@@ -13,8 +13,10 @@ namespace fw {
 
 // Transmit space periodic reports leave free, so that replies to commands always find room
 // and commands keep being served at any report rate (the controller reads a line only when
-// this much space is free).
-constexpr uint8_t kReplyReserve = 64;
+// this much space is free). The longest reply is 22 bytes (HI); a larger reserve made the
+// reports wait for an almost empty buffer and drop while a trajectory streamed (one AK per
+// point in the buffer was enough to push a 55-byte report out of 128 - 64 bytes).
+constexpr uint8_t kReplyReserve = 32;
 
 void report_set_rate(uint16_t rate_hz, uint32_t now_us);
 uint16_t report_rate();

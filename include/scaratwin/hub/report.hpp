@@ -16,6 +16,7 @@ inline constexpr const char* kLatencyMeanMs = "mirror_latency_mean_ms";
 inline constexpr const char* kLatencyP99Ms = "mirror_latency_p99_ms";
 inline constexpr const char* kHubToSimMeanMs = "hub_to_sim_latency_mean_ms";
 inline constexpr const char* kLostFrames = "mirror_lost_frames";
+inline constexpr const char* kReplayLostFrames = "replay_lost_frames";
 inline constexpr const char* kFrames = "mirror_frames";
 inline constexpr const char* kToolErrTargetPhysMm = "tool_error_target_physical_mm";
 inline constexpr const char* kToolErrTargetVirtMm = "tool_error_target_virtual_mm";
