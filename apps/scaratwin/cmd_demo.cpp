@@ -399,9 +399,15 @@ int run_demo(const CommonOptions& common, const DemoArgs& a) {
   } else {
     fmt::print("report: {}\n", report.string());
   }
-  (void)(*db)->export_csv(*demo, out / "csv");
-  fmt::print("database: {} (run {}; `scaratwin report {} --db {}`)\n", (out / "twin.db").string(),
-             *demo, *demo, (out / "twin.db").string());
+  // one folder of CSV tables per run of the session.
+  if (auto runs = (*db)->children(*demo); runs) {
+    for (const RunInfo& r : *runs) {
+      (void)(*db)->export_csv(r.id, out / "csv" / fmt::format("{}-{}", r.id, r.kind));
+    }
+  }
+  fmt::print("database: {} (run {}; `scaratwin report {} --db {}`), CSV in {}\n",
+             (out / "twin.db").string(), *demo, *demo, (out / "twin.db").string(),
+             (out / "csv").string());
   fmt::print("demo {} in {:.0f} s: {} of 3 cubes in their trays\n", ok ? "passed" : "FAILED", dur,
              outcome ? outcome->in_trays_replay : 0);
   std::fflush(stdout);

@@ -59,6 +59,16 @@ int run_report(const CommonOptions& common, const ReportArgs& a) {
       std::fprintf(stderr, "scaratwin report: %s\n", s.error().message.c_str());
       return kExitFailure;
     }
+    // a session's runs (a demo's phases) each get a folder.
+    if (auto kids = (*db)->children(run); kids) {
+      for (const RunInfo& r : *kids) {
+        const auto dir = std::filesystem::path(a.csv_dir) / fmt::format("{}-{}", r.id, r.kind);
+        if (Status s = (*db)->export_csv(r.id, dir); !s) {
+          std::fprintf(stderr, "scaratwin report: %s\n", s.error().message.c_str());
+          return kExitFailure;
+        }
+      }
+    }
     std::printf("csv: %s\n", std::filesystem::absolute(a.csv_dir).c_str());
   }
   return kExitOk;

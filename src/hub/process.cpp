@@ -113,6 +113,14 @@ bool ChildProcess::running() {
   return true;
 }
 
+int ChildProcess::wait_exit(std::chrono::milliseconds timeout) {
+  const auto deadline = std::chrono::steady_clock::now() + timeout;
+  while (running() && std::chrono::steady_clock::now() < deadline) {
+    std::this_thread::sleep_for(std::chrono::milliseconds(10));
+  }
+  return stop();
+}
+
 int ChildProcess::stop(std::chrono::milliseconds grace) {
   if (running()) {
     kill(pid_, SIGTERM);

@@ -57,7 +57,7 @@ TEST(Demo, SortsEveryCubeAndRecordsTheTwin) {
       kBin / "scaratwin", {"demo", "--out", out.string(), "--http-port", "0"}, out / "demo.log");
   ASSERT_TRUE(demo) << demo.error().message;
   auto done = (*demo)->wait_for_line("demo passed", 900s);
-  const int status = (*demo)->stop(60s);
+  const int status = (*demo)->wait_exit(120s);
   ASSERT_TRUE(done) << done.error().message;
   EXPECT_EQ(status, 0) << (*demo)->output_tail(40);
 
@@ -103,8 +103,9 @@ TEST(Demo, SortsEveryCubeAndRecordsTheTwin) {
   for (size_t p = html.find("<svg"); p != std::string::npos; p = html.find("<svg", p + 1)) ++svgs;
   EXPECT_GE(svgs, 20u);
   EXPECT_NE(html.find("prediction vs physical replay"), std::string::npos);
-  EXPECT_TRUE(fs::exists(out / "csv" / "samples.csv"));
-  EXPECT_GT(fs::file_size(out / "csv" / "samples.csv"), 10000u);
+  const fs::path replay_csv = out / "csv" / fmt::format("{}-replay", replay) / "samples.csv";
+  ASSERT_TRUE(fs::exists(replay_csv)) << replay_csv;
+  EXPECT_GT(fs::file_size(replay_csv), 10000u);
 }
 
 // A script whose third line cannot run: the error names the line and the robot never gets
@@ -137,7 +138,7 @@ TEST(Script, StopsAtTheFailingLineAndMovesNothingAfter) {
       dir / "run.log");
   ASSERT_TRUE(run);
   auto err = (*run)->wait_for_line("bad.txt:3", 300s);
-  const int status = (*run)->stop(120s);
+  const int status = (*run)->wait_exit(120s);
   ASSERT_TRUE(err) << err.error().message;
   EXPECT_NE(err->find("move 0.5 0.0 -0.02"), std::string::npos) << *err;
   EXPECT_NE(err->find("beyond the reach"), std::string::npos) << *err;
@@ -179,7 +180,7 @@ TEST(Examples, PickOneSortsACubeFromCpp) {
       dir / "ex.log");
   ASSERT_TRUE(ex);
   auto done = (*ex)->wait_for_line("cubes in their tray: 1", 300s);
-  const int status = (*ex)->stop(120s);
+  const int status = (*ex)->wait_exit(120s);
   ASSERT_TRUE(done) << done.error().message;
   EXPECT_EQ(status, 0);
   EXPECT_GT(fs::file_size(dir / "picture.png"), 1000u);

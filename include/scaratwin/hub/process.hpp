@@ -36,6 +36,9 @@ class ChildProcess {
   Result<std::string> wait_for_line(const std::string& needle, std::chrono::milliseconds timeout);
 
   bool running();
+  // Waits up to `timeout` for the process to exit by itself, then stop()s it. Returns the exit
+  // status (or -signal).
+  int wait_exit(std::chrono::milliseconds timeout);
   // SIGTERM, wait up to `grace`, then SIGKILL. Returns the exit status (or -signal).
   int stop(std::chrono::milliseconds grace = std::chrono::milliseconds(2000));
   pid_t pid() const { return pid_; }
