@@ -52,7 +52,15 @@ bool send_report(uint8_t flags, uint8_t queue_free, uint8_t reserve) {
 
 }  // namespace
 
-bool report_now(uint8_t flags, uint8_t queue_free) { return send_report(flags, queue_free, 0); }
+bool report_now(uint8_t flags, uint8_t queue_free) {
+  const uint32_t now = clock_micros();
+  const bool sent = send_report(flags, queue_free, 0);
+  // the answer stands in for the next periodic report: the grid restarts from it, so a QS
+  // never leaves two reports back to back in the transmit buffer (the second one would not
+  // fit while a trajectory's acknowledgements stream, and its number would be lost)
+  if (sent && g_period_us != 0) g_next_us = now + g_period_us;
+  return sent;
+}
 
 void report_poll(uint32_t now_us, uint8_t flags, uint8_t queue_free) {
   if (g_period_us == 0) return;

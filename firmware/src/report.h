@@ -1,7 +1,8 @@
 // State reports (ST): sampled from the actual step counters and the servo pulses being output,
 // never from commanded values, each with a sequence number (wrapping at 65536, shared with the
 // reports sent for QS) and the device timestamp in microseconds taken at the sample. Periodic
-// reports are due every 1e6 / rate_hz us on a fixed grid (no drift); a report that cannot be
+// reports are due every 1e6 / rate_hz us on a fixed grid (no drift), which restarts at each
+// report sent for QS (that report stands in for the next periodic one); a report that cannot be
 // sent (transmit buffer full because the rate is beyond what the baud rate carries) or a
 // deadline the loop missed still uses up its sequence number, so the host sees the loss as a
 // gap instead of a silently lower rate.

@@ -4,6 +4,10 @@
 
 #include <string.h>
 
+#if defined(__AVR__)
+#include <avr/pgmspace.h>
+#endif
+
 #include "code_tables.hpp"
 
 namespace scaratwin {
@@ -419,6 +423,31 @@ void Encoder::put(char c) {
   buffer_[size_++] = c;
 }
 
+#if defined(__AVR__)
+namespace {
+const uint32_t kPow10[10] PROGMEM = {1000000000u, 100000000u, 10000000u, 1000000u, 100000u,
+                                     10000u,      1000u,      100u,      10u,      1u};
+}  // namespace
+
+// An 8-bit microcontroller divides in software (a 32-bit division by 10 costs ~600 cycles on
+// an AVR, and a state report has ~40 digits): the digits come from the top, by subtracting
+// powers of ten (at most 9 subtractions each), ~10x faster.
+void Encoder::put_digits(uint32_t v, uint8_t min_digits) {
+  bool started = false;
+  for (uint8_t i = 0; i < 10; ++i) {
+    const uint32_t p = pgm_read_dword(&kPow10[i]);
+    char d = '0';
+    while (v >= p) {
+      v -= p;
+      ++d;
+    }
+    if (d != '0' || started || 10u - i <= min_digits) {
+      put(d);
+      started = true;
+    }
+  }
+}
+#else
 void Encoder::put_digits(uint32_t v, uint8_t min_digits) {
   char tmp[10];
   uint8_t n = 0;
@@ -429,6 +458,7 @@ void Encoder::put_digits(uint32_t v, uint8_t min_digits) {
   while (n < min_digits && n < 10) tmp[n++] = '0';
   while (n > 0) put(tmp[--n]);
 }
+#endif
 
 void Encoder::begin(uint16_t code) {
   packet_start_ = size_;

@@ -1,16 +1,21 @@
 // SPDX-License-Identifier: GPL-3.0-or-later (scaratwin-robot emulator, see avr_machine.hpp)
 #include "avr_machine.hpp"
 
+#include <cxxabi.h>
+
+#include <algorithm>
 #include <cstdarg>
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
+#include <map>
 
 extern "C" {
 #include <simavr/avr_extint.h>
 #include <simavr/avr_ioport.h>
 #include <simavr/avr_uart.h>
 #include <simavr/sim_avr.h>
+#include <simavr/sim_cycle_timers.h>
 #include <simavr/sim_elf.h>
 #include <simavr/sim_io.h>
 #include <simavr/sim_irq.h>
@@ -174,5 +179,76 @@ bool AvrMachine::run_until(std::uint64_t cycle) {
 }
 
 std::uint64_t AvrMachine::cycle() const { return avr_->cycle; }
+
+namespace {
+
+avr_cycle_count_t profile_hook(avr_t* avr, avr_cycle_count_t when, void* param) {
+  auto* self = static_cast<AvrMachine*>(param);
+  self->profile_sample(avr->state == cpu_Sleeping, avr->pc);
+  return when + self->profile_period();
+}
+
+}  // namespace
+
+void AvrMachine::start_profile(std::uint32_t period_cycles) {
+  profile_period_ = std::max<std::uint32_t>(period_cycles, 1);
+  profile_pc_.assign(avr_->flashend / 2 + 1, 0);
+  avr_cycle_timer_register(avr_, profile_period_, profile_hook, this);
+}
+
+void AvrMachine::profile_sample(bool sleeping, std::uint32_t pc) {
+  if (sleeping) {
+    ++profile_sleep_;
+  } else if (pc / 2 < profile_pc_.size()) {
+    ++profile_pc_[pc / 2];
+  }
+}
+
+std::string AvrMachine::profile_table(int rows) const {
+  // function symbols by address (simavr keeps the ELF's symbols sorted by name)
+  std::map<std::uint32_t, std::string> functions;
+  for (std::uint32_t i = 0; i < fw_->symbolcount; ++i) {
+    const avr_symbol_t* sym = fw_->symbol[i];
+    // code symbols only: data lives at 0x800000 and up in AVR ELF files; linker constants
+    // such as __TEXT_REGION_LENGTH__ are not functions
+    const std::string name = sym->symbol;
+    const bool linker_constant =
+        name.size() > 4 && name.rfind("__", 0) == 0 && name.compare(name.size() - 2, 2, "__") == 0;
+    if (sym->addr >= 0x800000 || linker_constant) continue;
+    int status = 0;
+    char* demangled = abi::__cxa_demangle(name.c_str(), nullptr, nullptr, &status);
+    functions.emplace(sym->addr, status == 0 && demangled != nullptr ? demangled : name);
+    std::free(demangled);
+  }
+  std::map<std::string, std::uint64_t> by_name;
+  std::uint64_t total = profile_sleep_;
+  for (std::size_t w = 0; w < profile_pc_.size(); ++w) {
+    if (profile_pc_[w] == 0) continue;
+    total += profile_pc_[w];
+    const auto addr = static_cast<std::uint32_t>(w * 2);
+    auto it = functions.upper_bound(addr);
+    char fallback[32];
+    std::snprintf(fallback, sizeof fallback, "0x%05x", addr);
+    by_name[it == functions.begin() ? fallback : std::prev(it)->second] += profile_pc_[w];
+  }
+  std::vector<std::pair<std::uint64_t, std::string>> sorted;
+  for (const auto& [name, n] : by_name) sorted.emplace_back(n, name);
+  std::sort(sorted.rbegin(), sorted.rend());
+  std::string out;
+  char line[256];
+  const double t = total > 0 ? static_cast<double>(total) : 1.0;
+  std::snprintf(line, sizeof line, "firmware CPU profile: %llu samples, one per %u cycles\n",
+                static_cast<unsigned long long>(total), profile_period_);
+  out += line;
+  std::snprintf(line, sizeof line, "%7.2f %%  (sleeping)\n",
+                100.0 * static_cast<double>(profile_sleep_) / t);
+  out += line;
+  for (int i = 0; i < rows && i < static_cast<int>(sorted.size()); ++i) {
+    std::snprintf(line, sizeof line, "%7.2f %%  %s\n",
+                  100.0 * static_cast<double>(sorted[i].first) / t, sorted[i].second.c_str());
+    out += line;
+  }
+  return out;
+}
 
 }  // namespace scaratwin::robot

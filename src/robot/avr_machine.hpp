@@ -58,6 +58,14 @@ class AvrMachine {
   double sim_seconds() const { return static_cast<double>(cycle()) / frequency_; }
   std::uint64_t sim_us() const { return cycle() * 1000000ULL / frequency_; }
 
+  // A statistical CPU profile of the firmware: samples the program counter every
+  // `period_cycles` (sleeping counts apart). profile_table() names the functions from the
+  // ELF's symbols and gives each one's share of the CPU, the largest first.
+  void start_profile(std::uint32_t period_cycles);
+  std::string profile_table(int rows) const;
+  void profile_sample(bool sleeping, std::uint32_t pc);  // called by the sampling timer
+  std::uint32_t profile_period() const { return profile_period_; }
+
  private:
   AvrMachine() = default;
   void feed_uart();
@@ -84,6 +92,9 @@ class AvrMachine {
   };
   Driven driven_[3];
   bool reasserting_ = false;
+  std::uint32_t profile_period_ = 0;
+  std::uint64_t profile_sleep_ = 0;
+  std::vector<std::uint32_t> profile_pc_;  // samples per word address
 };
 
 }  // namespace scaratwin::robot

@@ -131,6 +131,7 @@ void Emulator::wire_pins() {
     });
   }
   avr_->on_uart_output([this](std::uint8_t b) { to_host(b); });
+  if (options_.profile_cycles > 0) avr_->start_profile(options_.profile_cycles);
   // inputs idle high (pull-ups): open switches, released buttons
   for (int b = 0; b < 6; ++b) avr_->drive_pin(kButton[b].port, kButton[b].bit, true);
   update_endstops();

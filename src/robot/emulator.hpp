@@ -32,6 +32,7 @@ struct EmulatorOptions {
   std::string scenario;     // scenario file
   std::string pty_symlink;  // optional stable name for the pty
   MechanicsConfig mechanics;
+  std::uint32_t profile_cycles = 0;  // > 0: sample the firmware's program counter this often
 };
 
 // One timed command of a scenario file: "<t_ms> <command>".
@@ -52,6 +53,8 @@ class Emulator {
   // Executes one side-channel / scenario command; returns the reply line.
   std::string command(const std::string& line, int client);
   std::string truth_line() const;
+  // The firmware CPU profile (EmulatorOptions::profile_cycles), largest share first.
+  std::string profile_table() const { return avr_->profile_table(30); }
 
  private:
   Emulator(const EmulatorOptions& o, std::unique_ptr<AvrMachine> m, PtyLink pty, SideChannel side);

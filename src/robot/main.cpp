@@ -72,6 +72,10 @@ int main(int argc, char** argv) {
                  "(default: the home pose)")
       ->delimiter(',')
       ->expected(3);
+  std::string profile_path;
+  app.add_option("--profile", profile_path,
+                 "write a CPU profile of the firmware (share of cycles per function, sampled "
+                 "every 61 cycles) to this file at exit");
   bool exit_with_parent = false;
   app.add_flag("--exit-with-parent", exit_with_parent,
                "terminate when the process that started the emulator dies (tests)");
@@ -94,6 +98,7 @@ int main(int argc, char** argv) {
   opt.mechanics.servo_min_deg = model->motors.wrist.min_deg;
   opt.mechanics.servo_max_deg = model->motors.wrist.max_deg;
 
+  if (!profile_path.empty()) opt.profile_cycles = 61;
   auto emu = robot::Emulator::create(opt);
   if (!emu) {
     std::fprintf(stderr, "scaratwin-robot: %s\n", emu.error().message.c_str());
@@ -118,6 +123,15 @@ int main(int argc, char** argv) {
   Status st = e.run(g_stop);
   std::printf("final %s\n", e.truth_line().c_str());  // the truth when the run ended
   if (!opt.pty_symlink.empty()) ::unlink(opt.pty_symlink.c_str());
+  if (!profile_path.empty()) {
+    if (FILE* f = std::fopen(profile_path.c_str(), "w")) {
+      std::fputs(e.profile_table().c_str(), f);
+      std::fclose(f);
+    } else {
+      std::fprintf(stderr, "scaratwin-robot: cannot write the profile to %s\n",
+                   profile_path.c_str());
+    }
+  }
   if (!st) {
     std::fprintf(stderr, "scaratwin-robot: %s\n", st.error().message.c_str());
     return 1;

@@ -282,7 +282,9 @@ struct Channel<Out, In>::State {
       }
     }
     run(done);
-    if (!routed) {
+    // A state report is an observation of the peer whatever asked for it: one that answers
+    // a request (QS) goes to the subscriber too, so a monitor sees every report the peer sent.
+    if (!routed || state_seq(msg).has_value()) {
       UnsolicitedHandler handler;
       {
         std::lock_guard lock(mutex);

@@ -141,9 +141,19 @@ Result<TrajectoryLoad> Twin::load_trajectory(const JointTrajectory& trajectory) 
     dt_ms = std::clamp<std::int64_t>(dt_ms, 1, 65535);
     p.dt_s = static_cast<double>(dt_ms) / 1000.0;
     total_s += p.dt_s;
-    const auto steps = joints_to_steps(model_, samples[k].q);
+    // The device reaches the point at whole milliseconds: take the position at that time, not
+    // at the sample's own (a sample spacing of 20.05 ms sent as 20 and 21 ms would turn into
+    // a 5 % speed jitter that the firmware's acceleration check refuses). Second-order Taylor
+    // step from the sample's velocity and acceleration; at rest (the ends) it changes nothing.
+    const double shift_s =
+        static_cast<double>(std::llround(samples[k].t_s * 1000.0)) / 1000.0 - samples[k].t_s;
+    JointVector q = samples[k].q;
+    for (int j = 0; j < kNumJoints; ++j) {
+      q[j] += samples[k].qd[j] * shift_s + 0.5 * samples[k].qdd[j] * shift_s * shift_s;
+    }
+    const auto steps = joints_to_steps(model_, q);
     p.steps = {steps[0], steps[1], steps[2]};
-    p.wrist_rad = deg_to_rad(joints_to_motors(model_, samples[k].q).wrist_deg);
+    p.wrist_rad = deg_to_rad(joints_to_motors(model_, q).wrist_deg);
     while (event < trajectory.events.size() && trajectory.events[event].t_s <= samples[k].t_s) {
       const bool close = trajectory.events[event].action == GripperAction::kGrip;
       p.grip_rad =
@@ -218,20 +228,21 @@ Result<TrajectoryLoad> Twin::load_trajectory(const JointTrajectory& trajectory) 
       // out of credit: ask for a state report, whose queue_free counts every TP sent so far
       flow->polling = true;
       next_poll = now + options_.credit_poll;
-      const std::int64_t sent_before = next;
       ++out.credit_polls;
       lock.unlock();
       Status s = physical_->post(
           QueryState{},
-          [flow, sent_before](Result<RobotChannel::Reply>&& r) {
+          [flow](Result<RobotChannel::Reply>&& r) {
             std::lock_guard l(flow->m);
             flow->polling = false;
             const DeviceState* st = r ? std::get_if<DeviceState>(&r->last()) : nullptr;
             if (!r) {
               flow->error = Error{r.error().code, "QS: " + r.error().message};
-            } else if (st && sent_before >= flow->base) {
+            } else if (st) {
+              // The device answers in order: every TP acknowledged so far was queued before
+              // this report was sampled, no other was (whatever report answered the QS).
               flow->free = st->queue_free;
-              flow->base = sent_before;
+              flow->base = flow->acked;
             }
             flow->cv.notify_all();
           },

@@ -4,6 +4,8 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
+#include <cmath>
 #include <fstream>
 #include <random>
 
@@ -150,10 +152,21 @@ TEST(Statements, LoadTrajectoryHonoursCreditAndTheReceiveWindow) {
   for (std::size_t k = 0; k < 60; ++k) {
     const auto& p = rig.device.received[k];
     EXPECT_EQ(p.seq, static_cast<std::int32_t>(k));
-    const auto steps = joints_to_steps(rig.model, traj.samples[k].q);
-    EXPECT_EQ(p.steps[0], steps[0]);
-    EXPECT_EQ(p.steps[1], steps[1]);
-    EXPECT_EQ(p.steps[2], steps[2]);
+    // the position at the whole millisecond the device reaches the point (0.6 s / 59 is no
+    // whole number of ms): the quintic evaluated there, to within the rounding of one step
+    const double t = static_cast<double>(std::llround(traj.samples[k].t_s * 1000.0)) / 1000.0;
+    const double tau = std::clamp(t / 0.6, 0.0, 1.0);
+    const double blend = tau * tau * tau * (10.0 - 15.0 * tau + 6.0 * tau * tau);
+    JointVector q;
+    for (int j = 0; j < kNumJoints; ++j) q[j] = q0[j] + (q1[j] - q0[j]) * blend;
+    const auto steps = joints_to_steps(rig.model, q);
+    EXPECT_NEAR(p.steps[0], steps[0], 1) << "point " << k;
+    EXPECT_NEAR(p.steps[1], steps[1], 1) << "point " << k;
+    EXPECT_NEAR(p.steps[2], steps[2], 1) << "point " << k;
+    if (k == 0 || k == 59) {  // the ends exactly
+      const auto end = joints_to_steps(rig.model, k == 0 ? q0 : q1);
+      EXPECT_EQ(p.steps, (std::array<std::int32_t, 3>{end[0], end[1], end[2]}));
+    }
     EXPECT_GE(p.dt_s, 0.001);
     if (p.grip_rad) {
       ++with_grip;
@@ -253,6 +266,30 @@ TEST(Channel, PostedRequestGetsItsTimeoutWithoutFurtherTraffic) {
   EXPECT_GE(std::chrono::steady_clock::now() - t0, std::chrono::milliseconds(100));
   std::lock_guard lock(m);
   EXPECT_EQ(codes[0], protocol::core::kErrTimeout);
+}
+
+TEST(Channel, AStateReportThatAnswersARequestReachesTheSubscriberToo) {
+  Rig rig;
+  ASSERT_TRUE(rig.up());
+  std::mutex m;
+  std::vector<std::uint16_t> seen;
+  rig.robot->set_unsolicited_handler([&](protocol::SerialFromDevice&& msg, const RxPacket&) {
+    std::lock_guard lock(m);
+    if (const auto* st = std::get_if<protocol::DeviceState>(&msg)) seen.push_back(st->seq);
+  });
+  for (int i = 0; i < 3; ++i) {
+    auto r = rig.robot->request(protocol::QueryState{}, kWait);
+    ASSERT_TRUE(r) << r.error().message;
+    const auto* st = std::get_if<protocol::DeviceState>(&r->last());
+    ASSERT_NE(st, nullptr);
+    ASSERT_TRUE(eventually_size(m, seen, static_cast<std::size_t>(i + 1)));
+    std::lock_guard lock(m);
+    EXPECT_EQ(seen.back(), st->seq) << "the reply and the subscriber saw different reports";
+  }
+  // and each report once
+  std::this_thread::sleep_for(std::chrono::milliseconds(50));
+  std::lock_guard lock(m);
+  EXPECT_EQ(seen.size(), 3u);
 }
 
 TEST(Channel, DisconnectFailsPendingRequestsAndUnsolicitedPacketsArrive) {

@@ -7,6 +7,7 @@
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include <cmath>
 #include <filesystem>
 #include <thread>
 
@@ -28,12 +29,13 @@ struct Emulator {
   pid_t pid = -1;
   fs::path dir;
   fs::path tty;
-  Emulator() {
+  // speed: emulated seconds per wall second, 0 = as fast as it goes
+  explicit Emulator(const char* speed = "0") {
     char tmpl[] = "/tmp/scaratwin-emu-XXXXXX";
     dir = ::mkdtemp(tmpl);
     tty = dir / "tty";
     std::vector<std::string> args{SCARATWIN_ROBOT_EXE,  "--pty-link", tty.string(),
-                                  "--exit-with-parent", "--speed",    "0"};
+                                  "--exit-with-parent", "--speed",    speed};
     std::vector<char*> argv;
     for (auto& a : args) argv.push_back(a.data());
     argv.push_back(nullptr);
@@ -123,6 +125,91 @@ TEST(TwinWithFirmware, StatementsAgainstTheEmulatedRobot) {
   ASSERT_TRUE(grip) << grip.error().message;
   EXPECT_EQ(channel.decode_errors(), errors_at_open) << channel.last_decode_error();
   EXPECT_EQ(twin.stored_joints().size(), 3u);
+}
+
+// The replay case of the demo: a trajectory far longer than the Uno's queue streams through
+// credit flow control (QS polls when the credit is used up) at real time, while the mirror
+// listens to the periodic reports. Every report the firmware numbers must reach the listener:
+// the ones that answer a QS too, and none may be crowded out of the transmit buffer.
+TEST(TwinWithFirmware, EveryStateReportReachesTheMirrorWhileATrajectoryStreams) {
+  auto model = load_robot_config(SCARATWIN_CONFIG_FILE);
+  ASSERT_TRUE(model) << model.error().message;
+  Emulator emu("1");
+  ASSERT_GT(emu.pid, 0);
+  SerialOptions so;
+  so.device = emu.tty.string();
+  auto link = SerialLink::create(so);
+  ASSERT_TRUE(link);
+  ASSERT_TRUE((*link)->wait_connected(Duration{10000})) << "emulator did not come up";
+  RobotChannel channel(**link, robot_channel_defaults());
+  std::mutex m;
+  std::vector<std::uint16_t> seqs;
+  std::vector<std::uint32_t> times;
+  bool homed = false, done = false;
+  channel.set_unsolicited_handler([&](protocol::SerialFromDevice&& msg, const RxPacket&) {
+    std::lock_guard lock(m);
+    if (const auto* st = std::get_if<protocol::DeviceState>(&msg)) {
+      seqs.push_back(st->seq);
+      times.push_back(st->t_us);
+    }
+    if (const auto* ev = std::get_if<protocol::DeviceEvent>(&msg)) {
+      homed = homed || ev->event == protocol::DeviceEventCode::kHomed;
+      done = done || ev->event == protocol::DeviceEventCode::kTrajectoryDone;
+    }
+  });
+  auto wait_for = [&](const bool& flag, Duration timeout) {
+    const auto end = std::chrono::steady_clock::now() + timeout;
+    while (std::chrono::steady_clock::now() < end) {
+      {
+        std::lock_guard lock(m);
+        if (flag) return true;
+      }
+      std::this_thread::sleep_for(std::chrono::milliseconds(5));
+    }
+    return false;
+  };
+  TwinOptions to;
+  to.reply_timeout = kWait;
+  to.credit_poll = Duration{100};  // as the hub polls
+  Twin twin(*model, &channel, nullptr, to);
+  ASSERT_TRUE(channel.request(protocol::Home{}, kWait));
+  ASSERT_TRUE(wait_for(homed, Duration{30000})) << "not homed";
+  auto start = twin.read_physical_joints();
+  ASSERT_TRUE(start) << start.error().message;
+
+  // points of 20 ms over the fastest quintic the motors allow out to a far pose: many times
+  // the Uno's queue of 15
+  const JointVector goal{0.05, deg_to_rad(60), deg_to_rad(-60), deg_to_rad(90)};
+  const double duration_s = std::ceil(quintic_min_duration(*model, start->q, goal) / 0.02) * 0.02;
+  const int n = static_cast<int>(std::lround(duration_s / 0.02));
+  auto plan = plan_quintic(*model, start->q, goal, QuinticOptions{n, duration_s});
+  ASSERT_TRUE(plan) << plan.error().message;
+  std::size_t first = 0;
+  {
+    std::lock_guard lock(m);
+    first = seqs.size();
+  }
+  const std::uint64_t lost_before = channel.lost_packets();
+  auto load = twin.load_trajectory(*plan);
+  ASSERT_TRUE(load) << load.error().message;
+  EXPECT_EQ(load->points, n);
+  EXPECT_GT(load->credit_polls, 0) << "the queue never filled: the test does not test the polls";
+  ASSERT_TRUE(wait_for(done, Duration{30000})) << "trajectory not done";
+
+  std::lock_guard lock(m);
+  ASSERT_GT(seqs.size() - first, static_cast<std::size_t>(duration_s * 80))
+      << "100 Hz reports while the trajectory ran";
+  int gaps = 0;
+  for (std::size_t k = first + 1; k < seqs.size(); ++k) {
+    const int step = (seqs[k] - seqs[k - 1] + 65536) % 65536;
+    if (step != 1) {
+      ++gaps;
+      ADD_FAILURE() << "report " << seqs[k - 1] << " followed by " << seqs[k] << ", "
+                    << times[k] - times[k - 1] << " us later by the device clock";
+    }
+  }
+  EXPECT_EQ(gaps, 0);
+  EXPECT_EQ(channel.lost_packets(), lost_before);
 }
 
 }  // namespace
