@@ -11,36 +11,92 @@
 namespace scaratwin {
 namespace {
 
+using detail::Mask2;
+using detail::select;
+using detail::splat;
+using detail::V2d;
+
 constexpr double kTwoPi = 2.0 * kPi;
 // Relative slack on the reach test so that targets exactly on the workspace boundary (computed
 // by FK) are accepted despite rounding.
 constexpr double kReachSlack = 1e-12;
+// Below this magnitude the turn count of an angle fits the 1.5 * 2^52 rounding trick.
+constexpr double kTurnRange = 1e15;
 
 Error ik_error(IkError code, std::string message) {
   return Error{static_cast<int>(code), std::move(message)};
 }
 
-// Shifts `q` by whole turns into [lim.min, lim.max], choosing the turn nearest to `near`.
-// Returns false (leaving q unchanged) when no shift fits. Written without data-dependent
-// branches: it sits in the IK hot path, where random targets defeat branch prediction.
-bool wrap_into(double& q, const JointLimit& lim, double near) {
+// wrap_angle for every finite angle (and NaN), with a floor: the out-of-line fallback.
+[[gnu::noinline]] double wrap_angle_any(double rad) {
+  if (rad > -kPi && rad <= kPi) return rad;
+  double r = rad - kTwoPi * std::floor((rad + kPi) / kTwoPi);  // in [-pi, pi)
+  if (r <= -kPi) r += kTwoPi;
+  if (r > kPi) r -= kTwoPi;
+  return r;
+}
+
+// wrap_angle without data-dependent branches (FK wraps the yaw of random poses): the nearest
+// whole turn by the rounding trick, then the ends fixed to (-pi, pi]. Angles already inside
+// come back bit-exact (k = 0).
+inline double wrap_angle_inline(double rad) {
+  if (!(std::abs(rad) < kTurnRange)) return wrap_angle_any(rad);
+  const double k = (rad * (1.0 / kTwoPi) + detail::trig::kRoundShift) - detail::trig::kRoundShift;
+  const double r = rad - k * kTwoPi;
+  return select(r <= -kPi, r + kTwoPi, select(r > kPi, r - kTwoPi, r));
+}
+
+// The two elbow branches side by side: lane b of q[j] is joint j of branch b.
+using BranchLanes = std::array<V2d, kNumJoints>;
+
+// Shifts each lane of `q` by whole turns into [lim.min, lim.max], choosing the turn nearest to
+// `near`. Returns the mask of the lanes that fit; the others are left unchanged. No
+// data-dependent branches: random targets defeat branch prediction.
+Mask2 wrap_into(V2d& q, const JointLimit& lim, double near) {
+  constexpr double kShift = detail::trig::kRoundShift;
   // the lowest turn at or above lim.min (k = 0 leaves q bit-exact).
-  const double u = (q - lim.min) * (1.0 / kTwoPi);
-  double k = static_cast<double>(static_cast<long long>(u));
-  k -= static_cast<double>(k > u);
-  const double c0 = k == 0.0 ? q : q - k * kTwoPi;
-  const double c1 = c0 + kTwoPi;  // the next turn, if the range spans more than one turn
-  const bool use_c1 = c1 <= lim.max && std::abs(c1 - near) < std::abs(c0 - near);
-  const double c = use_c1 ? c1 : c0;
-  const bool ok = c0 <= lim.max;
-  q = ok ? c : q;
+  const V2d u = (q - lim.min) * (1.0 / kTwoPi);
+  const V2d r = (u + kShift) - kShift;
+  const V2d k = r - select(detail::lt(u, r), splat(1.0), splat(0.0));
+  const V2d c0 = q - k * kTwoPi;
+  const V2d c1 = c0 + kTwoPi;  // the next turn, if the range spans more than one turn
+  const V2d max = splat(lim.max);
+  const Mask2 use_c1 = detail::mask_and(detail::le(c1, max),
+                                        detail::lt(detail::abs(c1 - near), detail::abs(c0 - near)));
+  const Mask2 ok =
+      detail::mask_and(detail::le(c0, max), detail::lt(detail::abs(u), splat(kTurnRange)));
+  q = select(ok, select(use_c1, c1, c0), q);
   return ok;
+}
+
+// Wraps the revolute joints of both branches near `near`; fit[j - 1] is the mask of the lanes
+// where joint j fits its limits.
+std::array<Mask2, kNumJoints - 1> wrap_lanes(const RobotModel& model, BranchLanes& q,
+                                             const JointVector& near) {
+  std::array<Mask2, kNumJoints - 1> fit;
+  for (int j = 1; j < kNumJoints; ++j) fit[j - 1] = wrap_into(q[j], model.limits[j], near[j]);
+  return fit;
+}
+
+// The branches as joint vectors; joints that did not fit are wrapped to (-pi, pi] instead, and
+// bad[b] is the first such joint of branch b (or -1).
+void unpack(const BranchLanes& q, const std::array<Mask2, kNumJoints - 1>& fit,
+            std::array<JointVector, 2>& out, std::array<int, 2>& bad) {
+  for (int b = 0; b < 2; ++b) {
+    bad[b] = -1;
+    for (int j = 0; j < kNumJoints; ++j) {
+      out[b][j] = q[j][b];
+      if (j > 0 && (detail::lanes(fit[j - 1]) & (1 << b)) == 0) {
+        out[b][j] = wrap_angle_inline(out[b][j]);
+        if (bad[b] < 0) bad[b] = j;
+      }
+    }
+  }
 }
 
 // The closed-form solution without limits: both elbow branches, angles not wrapped. Returns
 // 0 or the IkError code of a pose no elbow can reach.
-int solve_raw(const RobotModel& model, const ToolPose& pose, std::array<JointVector, 2>& raw,
-              double& r_m) {
+int solve_raw(const RobotModel& model, const ToolPose& pose, BranchLanes& q, double& r_m) {
   const auto& dh = model.dh;
   if (!std::isfinite(pose.x_m) || !std::isfinite(pose.y_m) || !std::isfinite(pose.z_m) ||
       !std::isfinite(pose.yaw_rad)) {
@@ -52,8 +108,10 @@ int solve_raw(const RobotModel& model, const ToolPose& pose, std::array<JointVec
   // planar part: wrist centre relative to the shoulder axis.
   double ux = pose.x_m, uy = pose.y_m;
   if (dh[3].a_m != 0.0) {
-    ux -= dh[3].a_m * std::cos(pose.yaw_rad);
-    uy -= dh[3].a_m * std::sin(pose.yaw_rad);
+    double s, c;
+    detail::sincos_fast(pose.yaw_rad, s, c);
+    ux -= dh[3].a_m * c;
+    uy -= dh[3].a_m * s;
   }
   if (dh[0].theta_rad == 0.0) {
     ux -= dh[0].a_m;
@@ -63,31 +121,32 @@ int solve_raw(const RobotModel& model, const ToolPose& pose, std::array<JointVec
   }
   const double a2 = dh[1].a_m, a3 = dh[2].a_m;
   const double r2 = ux * ux + uy * uy;
-  r_m = std::sqrt(r2);
-  double c3 = (r2 - a2 * a2 - a3 * a3) / (2.0 * a2 * a3);
-  if (c3 > 1.0 + kReachSlack) return static_cast<int>(IkError::kBeyondReach);
-  if (c3 < -1.0 - kReachSlack) return static_cast<int>(IkError::kInsideDeadZone);
+  // the division depends on the model alone: it runs while the target is being read.
+  double c3 = (r2 - a2 * a2 - a3 * a3) * (1.0 / (2.0 * a2 * a3));
+  if (c3 > 1.0 + kReachSlack || c3 < -1.0 - kReachSlack) [[unlikely]] {
+    r_m = std::sqrt(r2);  // for the message
+    return static_cast<int>(c3 > 0.0 ? IkError::kBeyondReach : IkError::kInsideDeadZone);
+  }
   c3 = std::clamp(c3, -1.0, 1.0);
   const double s3 = std::sqrt((1.0 - c3) * (1.0 + c3));
-  const double q3p = detail::atan2_fast(s3, c3);
-  // phi1 = atan2(uy, ux) - atan2(k2, k1), written as one atan2 of the rotated vector.
+  // shoulder angle phi = atan2(uy, ux) -/+ atan2(k2, k1) for the elbow +/-q3, and the elbow
+  // angle itself: three atan2 in the lanes of two.
   const double k1 = a2 + a3 * c3, k2 = a3 * s3;
-  const double off1 = dh[0].theta_rad + dh[1].theta_rad;
-  for (int b = 0; b < 2; ++b) {
-    const double sk2 = b == 0 ? k2 : -k2;
-    const double phi1 = detail::atan2_fast(k1 * uy - sk2 * ux, k1 * ux + sk2 * uy);
-    const double elbow = b == 0 ? q3p : -q3p;
-    JointVector& q = raw[b];
-    q[0] = d1;
-    q[1] = phi1 - off1;
-    q[2] = elbow - dh[2].theta_rad;
-    q[3] = pose.yaw_rad - phi1 - elbow - dh[3].theta_rad;
-  }
+  V2d angles, elbows;
+  detail::atan2_fast(V2d{uy, k2}, V2d{ux, k1}, splat(s3), splat(c3), angles, elbows);
+  const double q3p = elbows[0];
+  const V2d phi = angles[0] - V2d{angles[1], -angles[1]};
+  const V2d elbow = V2d{q3p, -q3p};
+  q[0] = splat(d1);
+  q[1] = phi - (dh[0].theta_rad + dh[1].theta_rad);
+  q[2] = elbow - dh[2].theta_rad;
+  q[3] = pose.yaw_rad - phi - elbow - dh[3].theta_rad;
   return 0;
 }
 
-// The message of a solve_raw failure.
-Error raw_error(const RobotModel& model, const ToolPose& pose, int code, double r_m) {
+// The message of a solve_raw failure (out of line: formatting stays off the hot path).
+[[gnu::cold, gnu::noinline]] Error raw_error(const RobotModel& model, const ToolPose& pose,
+                                             int code, double r_m) {
   const auto& dh = model.dh;
   switch (static_cast<IkError>(code)) {
     case IkError::kNotFinite:
@@ -115,19 +174,6 @@ Error raw_error(const RobotModel& model, const ToolPose& pose, int code, double 
   }
 }
 
-// Wraps the revolute joints of `q` into their limits near `near`; returns the first joint
-// that does not fit, or -1.
-int wrap_joints(const RobotModel& model, JointVector& q, const JointVector& near) {
-  int bad = -1;
-  for (int j = 1; j < kNumJoints; ++j) {
-    if (!wrap_into(q[j], model.limits[j], near[j])) {
-      q[j] = wrap_angle(q[j]);
-      if (bad < 0) bad = j;
-    }
-  }
-  return bad;
-}
-
 }  // namespace
 
 const char* joint_name(int index) {
@@ -135,13 +181,7 @@ const char* joint_name(int index) {
   return (index >= 0 && index < kNumJoints) ? kNames[index] : "j?";
 }
 
-double wrap_angle(double rad) {
-  if (rad > -kPi && rad <= kPi) return rad;
-  double r = rad - kTwoPi * std::floor((rad + kPi) / kTwoPi);  // in [-pi, pi)
-  if (r <= -kPi) r += kTwoPi;
-  if (r > kPi) r -= kTwoPi;
-  return r;
-}
+double wrap_angle(double rad) { return wrap_angle_inline(rad); }
 
 double joint_distance2(const JointVector& a, const JointVector& b) {
   double s = 0.0;
@@ -181,11 +221,11 @@ ToolPose forward(const RobotModel& model, const JointVector& q) {
   const double p2 = p1 + q[2] + dh[2].theta_rad;
   const double p3 = p2 + q[3] + dh[3].theta_rad;
   ToolPose p;
-  double s1, c1, s2, c2;
-  detail::sincos_fast(p1, s1, c1);
-  detail::sincos_fast(p2, s2, c2);
-  p.x_m = dh[1].a_m * c1 + dh[2].a_m * c2;
-  p.y_m = dh[1].a_m * s1 + dh[2].a_m * s2;
+  // both link angles in the two lanes of one sine/cosine.
+  V2d s, c;
+  detail::sincos_fast(V2d{p1, p2}, s, c);
+  p.x_m = dh[1].a_m * c[0] + dh[2].a_m * c[1];
+  p.y_m = dh[1].a_m * s[0] + dh[2].a_m * s[1];
   if (p0 == 0.0) {
     p.x_m += dh[0].a_m;
   } else {
@@ -193,33 +233,30 @@ ToolPose forward(const RobotModel& model, const JointVector& q) {
     p.y_m += dh[0].a_m * std::sin(p0);
   }
   if (dh[3].a_m != 0.0) {
-    p.x_m += dh[3].a_m * std::cos(p3);
-    p.y_m += dh[3].a_m * std::sin(p3);
+    double s3, c3;
+    detail::sincos_fast(p3, s3, c3);
+    p.x_m += dh[3].a_m * c3;
+    p.y_m += dh[3].a_m * s3;
   }
   p.z_m = q[0] + dh[0].d_m + dh[1].d_m + dh[2].d_m + dh[3].d_m;
-  p.yaw_rad = wrap_angle(p3);
+  p.yaw_rad = wrap_angle_inline(p3);
   return p;
-}
-
-Result<IkBranches> inverse_branches(const RobotModel& model, const ToolPose& pose) {
-  IkBranches out;
-  double r_m = 0.0;
-  if (int code = solve_raw(model, pose, out.solutions, r_m); code != 0) {
-    return raw_error(model, pose, code, r_m);
-  }
-  for (JointVector& q : out.solutions) wrap_joints(model, q, model.home);
-  return out;
 }
 
 namespace {
 
-// Both branches wrapped near the seed, the valid ones first and nearest first. Returns the
-// number of valid solutions; on 0, `bad` holds the failing joint of each branch.
-int solve_within_limits(const RobotModel& model, std::array<JointVector, 2>& q,
-                        const JointVector& seed, std::array<int, 2>& bad) {
-  for (int b = 0; b < 2; ++b) {
-    bad[b] = wrap_joints(model, q[b], seed);
-  }
+// Both branches wrapped near `near` as joint vectors, with the first failing joint of each.
+int solve_unpacked(const RobotModel& model, const ToolPose& pose, const JointVector& near,
+                   std::array<JointVector, 2>& q, std::array<int, 2>& bad, double& r_m) {
+  BranchLanes lanes;
+  if (int code = solve_raw(model, pose, lanes, r_m); code != 0) return code;
+  unpack(lanes, wrap_lanes(model, lanes, near), q, bad);
+  return 0;
+}
+
+// The valid branches first and nearest the seed first. Returns the number of valid solutions.
+int order_valid(std::array<JointVector, 2>& q, const JointVector& seed,
+                const std::array<int, 2>& bad) {
   if (bad[0] >= 0 && bad[1] >= 0) return 0;
   if (bad[0] >= 0) {
     q[0] = q[1];
@@ -230,8 +267,11 @@ int solve_within_limits(const RobotModel& model, std::array<JointVector, 2>& q,
   return 2;
 }
 
-Error limit_error(const RobotModel& model, const std::array<JointVector, 2>& q,
-                  const std::array<int, 2>& bad, const JointVector& seed) {
+// No branch within the limits (out of line: formatting stays off the hot path).
+[[gnu::cold, gnu::noinline]] Error limit_error(const RobotModel& model,
+                                               const std::array<JointVector, 2>& q,
+                                               const std::array<int, 2>& bad,
+                                               const JointVector& seed) {
   // report the branch nearer the seed.
   const int b = joint_distance2(q[0], seed) <= joint_distance2(q[1], seed) ? 0 : 1;
   const int j = bad[b];
@@ -243,31 +283,59 @@ Error limit_error(const RobotModel& model, const std::array<JointVector, 2>& q,
                               rad_to_deg(model.limits[j].max), joint_name(bad[1 - b])));
 }
 
+[[gnu::cold, gnu::noinline]] Error limit_error(const RobotModel& model, const BranchLanes& lanes,
+                                               const std::array<Mask2, kNumJoints - 1>& fit,
+                                               const JointVector& seed) {
+  std::array<JointVector, 2> q;
+  std::array<int, 2> bad;
+  unpack(lanes, fit, q, bad);
+  return limit_error(model, q, bad, seed);
+}
+
 }  // namespace
+
+Result<IkBranches> inverse_branches(const RobotModel& model, const ToolPose& pose) {
+  IkBranches out;
+  std::array<int, 2> bad;
+  double r_m = 0.0;
+  if (int code = solve_unpacked(model, pose, model.home, out.solutions, bad, r_m); code != 0) {
+    return raw_error(model, pose, code, r_m);
+  }
+  return out;
+}
 
 Result<IkSolutions> inverse_all(const RobotModel& model, const ToolPose& pose,
                                 const JointVector& seed) {
   IkSolutions out;
+  std::array<int, 2> bad;
   double r_m = 0.0;
-  if (int code = solve_raw(model, pose, out.solutions, r_m); code != 0) {
+  if (int code = solve_unpacked(model, pose, seed, out.solutions, bad, r_m); code != 0) {
     return raw_error(model, pose, code, r_m);
   }
-  std::array<int, 2> bad{};
-  out.count = solve_within_limits(model, out.solutions, seed, bad);
+  out.count = order_valid(out.solutions, seed, bad);
   if (out.count == 0) return limit_error(model, out.solutions, bad, seed);
   return out;
 }
 
+// The hot path: the same choice as inverse_all's first solution, with the branches kept in
+// the two lanes and the choice made without branching on the data.
 Result<JointVector> inverse(const RobotModel& model, const ToolPose& pose,
                             const JointVector& seed) {
-  std::array<JointVector, 2> q;
+  BranchLanes q;
   double r_m = 0.0;
   if (int code = solve_raw(model, pose, q, r_m); code != 0) {
     return raw_error(model, pose, code, r_m);
   }
-  std::array<int, 2> bad{};
-  if (solve_within_limits(model, q, seed, bad) == 0) return limit_error(model, q, bad, seed);
-  return q[0];
+  const std::array<Mask2, kNumJoints - 1> fit = wrap_lanes(model, q, seed);
+  const int valid = detail::lanes(detail::mask_and(detail::mask_and(fit[0], fit[1]), fit[2]));
+  if (valid == 0) return limit_error(model, q, fit, seed);
+  // joint_distance2 of each branch to the seed, in the same order of operations.
+  V2d d2 = splat(0.0);
+  for (int j = 0; j < kNumJoints; ++j) d2 += (q[j] - seed[j]) * (q[j] - seed[j]);
+  const bool pick1 = (valid == 2) | ((valid == 3) & (d2[1] < d2[0]));
+  JointVector out;
+  for (int j = 0; j < kNumJoints; ++j) out[j] = select(pick1, q[j][1], q[j][0]);
+  return out;
 }
 
 Eigen::Matrix4d jacobian(const RobotModel& model, const JointVector& q) {

@@ -89,6 +89,49 @@ TEST(Ik, RoundTripsHundredThousandRandomTargets) {
   EXPECT_LE(worst_yaw, 1e-12);
 }
 
+TEST(Ik, InverseIsTheFirstOfInverseAll) {
+  // inverse() chooses between the branches without branching; inverse_all() sorts them.
+  std::mt19937_64 rng(5);
+  RobotModel narrow = model();  // limits that often leave only one elbow valid
+  narrow.limits[1] = {deg_to_rad(-60), deg_to_rad(60)};
+  for (const RobotModel* m : {&model(), static_cast<const RobotModel*>(&narrow)}) {
+    for (int i = 0; i < 20000; ++i) {
+      const ToolPose target = forward(*m, random_joints(rng));
+      const JointVector seed = random_joints(rng);
+      auto one = inverse(*m, target, seed);
+      auto all = inverse_all(*m, target, seed);
+      ASSERT_EQ(one.ok(), all.ok());
+      if (!one) {
+        EXPECT_EQ(one.error().code, all.error().code);
+        EXPECT_EQ(one.error().message, all.error().message);
+        continue;
+      }
+      EXPECT_EQ(*one, all->solutions[0]);
+    }
+  }
+}
+
+TEST(WrapAngle, WrapsIntoMinusPiPi) {
+  EXPECT_EQ(wrap_angle(kPi), kPi);
+  EXPECT_EQ(wrap_angle(-kPi), kPi);
+  EXPECT_EQ(wrap_angle(3 * kPi), kPi);
+  EXPECT_EQ(wrap_angle(0.25), 0.25);
+  EXPECT_TRUE(std::signbit(wrap_angle(-0.0)));
+  EXPECT_NEAR(wrap_angle(2 * kPi + 0.5), 0.5, 1e-15);
+  EXPECT_NEAR(wrap_angle(-7 * kPi - 0.5), kPi - 0.5, 1e-14);
+  EXPECT_NEAR(wrap_angle(1e6), std::remainder(1e6, 2 * kPi), 1e-9);
+  const double huge = wrap_angle(1e300);  // beyond the rounding trick: the floor fallback
+  EXPECT_TRUE(huge > -kPi && huge <= kPi);
+  EXPECT_TRUE(std::isnan(wrap_angle(NAN)));
+  std::mt19937_64 rng(9);
+  std::uniform_real_distribution<double> d(-100.0, 100.0);
+  for (int i = 0; i < 100000; ++i) {
+    const double a = d(rng), w = wrap_angle(a);
+    ASSERT_TRUE(w > -kPi && w <= kPi) << a;
+    ASSERT_NEAR(std::remainder(a - w, 2 * kPi), 0.0, 1e-13) << a;
+  }
+}
+
 TEST(Ik, ReturnsBothElbowBranches) {
   const JointVector q{0.06, deg_to_rad(20), deg_to_rad(60), deg_to_rad(40)};
   const ToolPose p = forward(model(), q);
