@@ -84,6 +84,20 @@ void BM_Quintic60x4(benchmark::State& state) {
 }
 BENCHMARK(BM_Quintic60x4);
 
+// The per-call figure: the allocation-free form into a buffer the caller keeps.
+void BM_QuinticInto60x4(benchmark::State& state) {
+  const Fixture& f = fx();
+  std::vector<JointSample> buf(60);
+  size_t i = 0;
+  for (auto _ : state) {
+    quintic_into(f.joints[i], f.joints[i + 1], 6.0, buf);
+    benchmark::DoNotOptimize(buf.data());
+    benchmark::ClobberMemory();
+    if (++i == f.joints.size() - 1) i = 0;
+  }
+}
+BENCHMARK(BM_QuinticInto60x4);
+
 #ifdef SCARATWIN_HAVE_KDL
 // The chain that reproduces the paper's DH (standard DH, Frame::DH).
 KDL::Chain kdl_chain(const RobotModel& m) {

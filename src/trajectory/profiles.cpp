@@ -1,6 +1,7 @@
 // Joint-space profiles: the paper's quintic (jtraj) and a synchronised trapezoid.
 #include <algorithm>
 #include <cmath>
+#include <cstring>
 
 #include <fmt/format.h>
 
@@ -15,6 +16,16 @@ namespace {
 // 6 tau^5 for a unit duration.
 constexpr double kQuinticPeakVel = 15.0 / 8.0;
 const double kQuinticPeakAcc = 10.0 / std::sqrt(3.0);
+
+// Two doubles in one SSE2 / NEON register (GCC/clang vector extension: portable, no machine
+// flag), and unaligned loads and stores of two joint values.
+using V2d = double __attribute__((vector_size(16)));
+V2d load2(const double* p) {
+  V2d v;
+  std::memcpy(&v, p, sizeof v);
+  return v;
+}
+void store2(double* p, V2d v) { std::memcpy(p, &v, sizeof v); }
 
 Error plan_error(PlanError code, std::string message) {
   return Error{static_cast<int>(code), std::move(message)};
@@ -47,31 +58,54 @@ std::array<double, 4> motor_deltas(const RobotModel& model, const JointVector& q
 
 }  // namespace
 
+void quintic_into(const JointVector& q0, const JointVector& q1, double duration_s,
+                  std::span<JointSample> out) {
+  SCARATWIN_CHECK(out.size() >= 2 && duration_s > 0.0, "quintic needs >= 2 samples and T > 0");
+  const size_t n = out.size();
+  const double inv_t = 1.0 / duration_s;
+  const double inv_t2 = inv_t * inv_t;
+  const double step = 1.0 / static_cast<double>(n - 1);
+  // per joint: position q0 + d s(tau), velocity d s'(tau) / T, acceleration d s''(tau) / T^2,
+  // with s = 10 tau^3 - 15 tau^4 + 6 tau^5. The profile is evaluated for two samples at once
+  // and the joints two at a time (the same operations as one by one, so the same results).
+  const V2d a01 = load2(&q0[0]), a23 = load2(&q0[2]);
+  const V2d d01 = load2(&q1[0]) - a01, d23 = load2(&q1[2]) - a23;
+  const auto write = [&](JointSample& smp, double tau, double s, double sd, double sdd) {
+    smp.t_s = tau * duration_s;
+    store2(&smp.q[0], a01 + d01 * s);
+    store2(&smp.q[2], a23 + d23 * s);
+    store2(&smp.qd[0], d01 * sd);
+    store2(&smp.qd[2], d23 * sd);
+    store2(&smp.qdd[0], d01 * sdd);
+    store2(&smp.qdd[2], d23 * sdd);
+  };
+  V2d k = {0.0, 1.0};
+  size_t i = 0;
+  for (; i + 1 < n; i += 2, k += 2.0) {
+    const V2d tau = k * step;
+    const V2d t2 = tau * tau, t3 = t2 * tau;
+    const V2d s = t3 * (10.0 - 15.0 * tau + 6.0 * t2);
+    const V2d sd = 30.0 * t2 * (1.0 - 2.0 * tau + t2) * inv_t;
+    const V2d sdd = 60.0 * tau * (1.0 - 3.0 * tau + 2.0 * t2) * inv_t2;
+    write(out[i], tau[0], s[0], sd[0], sdd[0]);
+    write(out[i + 1], tau[1], s[1], sd[1], sdd[1]);
+  }
+  if (i < n) {
+    const double tau = static_cast<double>(i) * step;
+    const double t2 = tau * tau, t3 = t2 * tau;
+    write(out[i], tau, t3 * (10.0 - 15.0 * tau + 6.0 * t2),
+          30.0 * t2 * (1.0 - 2.0 * tau + t2) * inv_t,
+          60.0 * tau * (1.0 - 3.0 * tau + 2.0 * t2) * inv_t2);
+  }
+  out.back().q = q1;  // exact end point
+}
+
 JointTrajectory quintic(const JointVector& q0, const JointVector& q1, double duration_s,
                         int samples) {
   SCARATWIN_CHECK(samples >= 2 && duration_s > 0.0, "quintic needs >= 2 samples and T > 0");
   JointTrajectory out;
   out.samples.resize(static_cast<size_t>(samples));
-  const double inv_t = 1.0 / duration_s;
-  const double inv_t2 = inv_t * inv_t;
-  const double step = 1.0 / (samples - 1);
-  JointVector d;
-  for (int j = 0; j < kNumJoints; ++j) d[j] = q1[j] - q0[j];
-  for (int k = 0; k < samples; ++k) {
-    const double tau = k * step;
-    const double t2 = tau * tau, t3 = t2 * tau;
-    const double s = t3 * (10.0 - 15.0 * tau + 6.0 * t2);
-    const double sd = 30.0 * t2 * (1.0 - 2.0 * tau + t2) * inv_t;
-    const double sdd = 60.0 * tau * (1.0 - 3.0 * tau + 2.0 * t2) * inv_t2;
-    JointSample& smp = out.samples[static_cast<size_t>(k)];
-    smp.t_s = tau * duration_s;
-    for (int j = 0; j < kNumJoints; ++j) {
-      smp.q[j] = q0[j] + d[j] * s;
-      smp.qd[j] = d[j] * sd;
-      smp.qdd[j] = d[j] * sdd;
-    }
-  }
-  out.samples.back().q = q1;  // exact end point
+  quintic_into(q0, q1, duration_s, out.samples);
   return out;
 }
 

@@ -4,6 +4,7 @@
 #include <fstream>
 #include <random>
 #include <sstream>
+#include <vector>
 
 #include <gtest/gtest.h>
 #include <Eigen/Geometry>
@@ -90,6 +91,24 @@ TEST(Quintic, MatchesGoldenFile) {
     ++k;
   }
   EXPECT_EQ(k, 60u);
+}
+
+TEST(Quintic, IntoBufferMatchesAllocatingForm) {
+  const JointVector q0{0.1, -0.5, 1.0, 0.2}, q1{0.05, 1.0, -1.0, 2.0};
+  for (int n : {2, 3, 7, 60, 61}) {
+    const JointTrajectory t = quintic(q0, q1, 1.5, n);
+    std::vector<JointSample> buf(static_cast<size_t>(n));
+    quintic_into(q0, q1, 1.5, buf);
+    for (int k = 0; k < n; ++k) {
+      const JointSample& a = t.samples[static_cast<size_t>(k)];
+      const JointSample& b = buf[static_cast<size_t>(k)];
+      EXPECT_EQ(a.t_s, b.t_s);
+      EXPECT_EQ(a.q, b.q);
+      EXPECT_EQ(a.qd, b.qd);
+      EXPECT_EQ(a.qdd, b.qdd);
+    }
+    EXPECT_EQ(buf.back().q, q1);
+  }
 }
 
 TEST(Quintic, StartsAndEndsAtRest) {

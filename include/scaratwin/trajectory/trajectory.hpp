@@ -6,6 +6,7 @@
 // Units: time s, d1 m, angles rad; derivatives per second and per second squared.
 #pragma once
 
+#include <span>
 #include <vector>
 
 #include "scaratwin/core/result.hpp"
@@ -49,6 +50,11 @@ enum class PlanError : int {
 // at both ends, `samples` samples evenly spaced over `duration_s`. No limit check.
 JointTrajectory quintic(const JointVector& q0, const JointVector& q1, double duration_s,
                         int samples = 60);
+
+// The same samples written into `out` (out.size() >= 2 samples over `duration_s`), without
+// allocating: for callers that replan often into a buffer they keep.
+void quintic_into(const JointVector& q0, const JointVector& q1, double duration_s,
+                  std::span<JointSample> out);
 
 // Shortest duration for which a quintic from q0 to q1 honours every motor's limits.
 double quintic_min_duration(const RobotModel& model, const JointVector& q0, const JointVector& q1);
