@@ -13,6 +13,7 @@
 #include <bit>
 #include <cmath>
 #include <cstdint>
+#include <type_traits>
 
 #if defined(__SSE2__)
 #include <emmintrin.h>
@@ -35,6 +36,8 @@ inline Mask2 lt(V2d a, V2d b) { return _mm_cmplt_pd(a, b); }
 inline Mask2 le(V2d a, V2d b) { return _mm_cmple_pd(a, b); }
 inline Mask2 mask_and(Mask2 a, Mask2 b) { return _mm_and_pd(a, b); }
 inline Mask2 mask_or(Mask2 a, Mask2 b) { return _mm_or_pd(a, b); }
+// b and not a.
+inline Mask2 mask_andnot(Mask2 a, Mask2 b) { return _mm_andnot_pd(a, b); }
 // Bitwise select: a where the mask lane is all ones, b where it is zero.
 inline V2d select(Mask2 m, V2d a, V2d b) {
   return _mm_or_pd(_mm_and_pd(m, a), _mm_andnot_pd(m, b));
@@ -49,6 +52,9 @@ inline Mask2 mask_and(Mask2 a, Mask2 b) {
 }
 inline Mask2 mask_or(Mask2 a, Mask2 b) {
   return std::bit_cast<V2d>(std::bit_cast<V2i>(a) | std::bit_cast<V2i>(b));
+}
+inline Mask2 mask_andnot(Mask2 a, Mask2 b) {
+  return std::bit_cast<V2d>(~std::bit_cast<V2i>(a) & std::bit_cast<V2i>(b));
 }
 inline V2d select(Mask2 m, V2d a, V2d b) {
   const V2i mi = std::bit_cast<V2i>(m);
@@ -104,26 +110,12 @@ inline void kernels(T y, T& sy, T& cy) {
   cy = w + (((1.0 - w) - hz) + z * cp);
 }
 
-// fdlibm's atan polynomial: atan(z) ~ z - z * (s1 + s2), |z| <= 7/16.
-template <typename T>
-inline T atan_tail(T z) {
-  const T w = z * z;
-  const T zz = w * w;
-  const T s1 =
-      w *
-      (3.33333333333329318027e-01 +
-       zz * (1.42857142725034663711e-01 +
-             zz * (9.09088713343650656196e-02 +
-                   zz * (6.66107313738753120669e-02 +
-                         zz * (4.97687799461593236017e-02 + zz * 1.62858201153657823623e-02)))));
-  const T s2 =
-      zz * (-1.99999999998764832476e-01 +
-            zz * (-1.11111104054623557880e-01 +
-                  zz * (-7.69187620504482999495e-02 +
-                        zz * (-5.83357013379057348645e-02 + zz * -3.65315727442169155270e-02))));
-  return z * (s1 + s2);
-}
-
+// fdlibm's atan coefficients aT[0..10] and reduction constants.
+inline constexpr double kAtanT[11] = {
+    3.33333333333329318027e-01,  -1.99999999998764832476e-01, 1.42857142725034663711e-01,
+    -1.11111104054623557880e-01, 9.09088713343650656196e-02,  -7.69187620504482999495e-02,
+    6.66107313738753120669e-02,  -5.83357013379057348645e-02, 4.97687799461593236017e-02,
+    -3.65315727442169155270e-02, 1.62858201153657823623e-02};
 constexpr double kAtanHi1 = 4.63647609000806093515e-01;  // atan(1/2)
 constexpr double kAtanLo1 = 2.26987774529616870924e-17;
 constexpr double kAtanHi2 = 7.85398163397448278999e-01;  // atan(1)
@@ -132,6 +124,64 @@ constexpr double kPio2Hi = 1.57079632679489655800e+00;
 constexpr double kPio2Lo = 6.12323399573676603587e-17;
 constexpr double kPiHi = 3.14159265358979311600e+00;
 constexpr double kPiLo = 1.22464679914735317720e-16;
+
+// The same constants for the two-lane atan2, in storage that is writable but never written:
+// g++ 12 builds each constant vector from a scalar (two instructions), while a global it
+// cannot prove constant is read straight from memory as an operand of the arithmetic. The IK
+// hot path uses about thirty of them.
+struct alignas(16) AtanLaneConstants {
+  V2d t[11];
+  V2d hi1, hi2, lo1, lo2, pio2_hi, pio2_lo, pi_hi, pi_lo, split1, split2, half;
+};
+#define SCARATWIN_SPLAT(c) \
+  V2d { c, c }
+inline AtanLaneConstants atan_lane_constants = {
+    {SCARATWIN_SPLAT(kAtanT[0]), SCARATWIN_SPLAT(kAtanT[1]), SCARATWIN_SPLAT(kAtanT[2]),
+     SCARATWIN_SPLAT(kAtanT[3]), SCARATWIN_SPLAT(kAtanT[4]), SCARATWIN_SPLAT(kAtanT[5]),
+     SCARATWIN_SPLAT(kAtanT[6]), SCARATWIN_SPLAT(kAtanT[7]), SCARATWIN_SPLAT(kAtanT[8]),
+     SCARATWIN_SPLAT(kAtanT[9]), SCARATWIN_SPLAT(kAtanT[10])},
+    SCARATWIN_SPLAT(kAtanHi1),
+    SCARATWIN_SPLAT(kAtanHi2),
+    SCARATWIN_SPLAT(kAtanLo1),
+    SCARATWIN_SPLAT(kAtanLo2),
+    SCARATWIN_SPLAT(kPio2Hi),
+    SCARATWIN_SPLAT(kPio2Lo),
+    SCARATWIN_SPLAT(kPiHi),
+    SCARATWIN_SPLAT(kPiLo),
+    SCARATWIN_SPLAT(0.4375),
+    SCARATWIN_SPLAT(0.6875),
+    SCARATWIN_SPLAT(0.5)};
+#undef SCARATWIN_SPLAT
+
+template <typename T>
+inline T atan_coef(int i) {
+  if constexpr (std::is_same_v<T, double>) {
+    return kAtanT[i];
+  } else {
+    return atan_lane_constants.t[i];
+  }
+}
+
+// fdlibm's atan polynomial: atan(z) ~ z - z w Q(w), w = z^2, |z| <= 7/16. Q is evaluated by
+// Estrin's scheme (pairs, then powers w^2, w^4, w^8) rather than fdlibm's two Horner chains:
+// half the dependent steps, and IK's critical path runs through it.
+template <typename T>
+inline T atan_tail(T z) {
+  const T w = z * z;
+  const T w2 = w * w;
+  const T w4 = w2 * w2;
+  const T p01 = atan_coef<T>(0) + w * atan_coef<T>(1);
+  const T p23 = atan_coef<T>(2) + w * atan_coef<T>(3);
+  const T p45 = atan_coef<T>(4) + w * atan_coef<T>(5);
+  const T p67 = atan_coef<T>(6) + w * atan_coef<T>(7);
+  const T p89 = atan_coef<T>(8) + w * atan_coef<T>(9);
+  const T q03 = p01 + w2 * p23;
+  const T q47 = p45 + w2 * p67;
+  const T q8a = p89 + w2 * atan_coef<T>(10);
+  const T q = (q03 + w4 * q47) + (w4 * w4) * q8a;
+  return z * (w * q);
+}
+
 constexpr std::uint64_t kSignBit = std::uint64_t{1} << 63;
 
 }  // namespace trig
@@ -219,15 +269,16 @@ inline V2d atan2_lanes(V2d y, V2d x) {
   const Mask2 swapped = lt(ax, ay);
   const V2d mn = select(swapped, ax, ay);
   const V2d mx = select(swapped, ay, ax);
-  const Mask2 i1 = le(0.4375 * mx, mn), i2 = le(0.6875 * mx, mn);
-  const V2d half = splat(0.5);
-  const V2d f = select(i1, half, zero) + select(i2, half, zero);
-  const V2d hi = select(i2, splat(kAtanHi2), select(i1, splat(kAtanHi1), zero));
-  const V2d lo = select(i2, splat(kAtanLo2), select(i1, splat(kAtanLo1), zero));
+  const AtanLaneConstants& k = atan_lane_constants;
+  const Mask2 i1 = le(k.split1 * mx, mn), i2 = le(k.split2 * mx, mn);
+  // i2 implies i1, so a masked constant stands for select(i1, c, 0).
+  const V2d f = mask_and(i1, k.half) + mask_and(i2, k.half);
+  const V2d hi = select(i2, k.hi2, mask_and(i1, k.hi1));
+  const V2d lo = select(i2, k.lo2, mask_and(i1, k.lo1));
   const V2d z = (mn - f * mx) / (mx + f * mn);
   V2d t = hi - ((atan_tail(z) - lo) - z);
-  t = select(swapped, kPio2Hi - (t - kPio2Lo), t);
-  t = select(lt(x, zero), kPiHi - (t - kPiLo), t);
+  t = select(swapped, k.pio2_hi - (t - k.pio2_lo), t);
+  t = select(lt(x, zero), k.pi_hi - (t - k.pi_lo), t);
   return std::bit_cast<V2d>(std::bit_cast<V2i>(t) | sign_bits(y));
 }
 
@@ -242,9 +293,10 @@ inline V2d atan2_fast(V2d y, V2d x) {
 }
 
 // Four atan2 at once (r0 = atan2(y0, x0), r1 = atan2(y1, x1), lane by lane): one pass over
-// the constants for both pairs.
-inline void atan2_fast(V2d y0, V2d x0, V2d y1, V2d x1, V2d& r0, V2d& r1) {
-  if (!(trig::atan2_lanes_fine(y0, x0) && trig::atan2_lanes_fine(y1, x1))) [[unlikely]] {
+// the constants for both pairs. `checked` = false skips the test of the lanes for callers
+// that know every lane finite and not (0, 0).
+inline void atan2_fast(V2d y0, V2d x0, V2d y1, V2d x1, V2d& r0, V2d& r1, bool checked = true) {
+  if (checked && !(trig::atan2_lanes_fine(y0, x0) && trig::atan2_lanes_fine(y1, x1))) [[unlikely]] {
     r0 = atan2_fast(y0, x0);
     r1 = atan2_fast(y1, x1);
     return;

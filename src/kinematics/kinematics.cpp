@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstring>
 
 #include <fmt/format.h>
 
@@ -20,6 +21,8 @@ constexpr double kTwoPi = 2.0 * kPi;
 // Relative slack on the reach test so that targets exactly on the workspace boundary (computed
 // by FK) are accepted despite rounding.
 constexpr double kReachSlack = 1e-12;
+// A joint range below this (rad) holds at most one turn of an angle, with margin for rounding.
+constexpr double kNarrowRange = 6.0;
 // Below this magnitude the turn count of an angle fits the 1.5 * 2^52 rounding trick.
 constexpr double kTurnRange = 1e15;
 
@@ -50,31 +53,48 @@ inline double wrap_angle_inline(double rad) {
 using BranchLanes = std::array<V2d, kNumJoints>;
 
 // Shifts each lane of `q` by whole turns into [lim.min, lim.max], choosing the turn nearest to
-// `near`. Returns the mask of the lanes that fit; the others are left unchanged. No
+// `near`. Returns the mask of the lanes that fit; with kKeep the others are left unchanged,
+// without it they hold some turn of the angle (for the hot path, which never reads them). No
 // data-dependent branches: random targets defeat branch prediction.
+template <bool kKeep>
 Mask2 wrap_into(V2d& q, const JointLimit& lim, double near) {
   constexpr double kShift = detail::trig::kRoundShift;
-  // the lowest turn at or above lim.min (k = 0 leaves q bit-exact).
+  const V2d max = splat(lim.max);
+  if (lim.max - lim.min < kNarrowRange) {
+    // one turn at most fits: the one nearest the middle of the range, if inside (k = 0 leaves
+    // q bit-exact).
+    const V2d v = (q - 0.5 * (lim.min + lim.max)) * (1.0 / kTwoPi);
+    const V2d c = q - ((v + kShift) - kShift) * kTwoPi;
+    const Mask2 ok =
+        detail::mask_and(detail::mask_and(detail::le(splat(lim.min), c), detail::le(c, max)),
+                         detail::lt(detail::abs(v), splat(kTurnRange)));
+    q = kKeep ? select(ok, c, q) : c;
+    return ok;
+  }
+  // the lowest turn at or above lim.min, and the next one if it fits and is nearer.
   const V2d u = (q - lim.min) * (1.0 / kTwoPi);
   const V2d r = (u + kShift) - kShift;
   const V2d k = r - select(detail::lt(u, r), splat(1.0), splat(0.0));
   const V2d c0 = q - k * kTwoPi;
-  const V2d c1 = c0 + kTwoPi;  // the next turn, if the range spans more than one turn
-  const V2d max = splat(lim.max);
+  const V2d c1 = c0 + kTwoPi;
   const Mask2 use_c1 = detail::mask_and(detail::le(c1, max),
                                         detail::lt(detail::abs(c1 - near), detail::abs(c0 - near)));
   const Mask2 ok =
       detail::mask_and(detail::le(c0, max), detail::lt(detail::abs(u), splat(kTurnRange)));
-  q = select(ok, select(use_c1, c1, c0), q);
+  const V2d c = select(use_c1, c1, c0);
+  q = kKeep ? select(ok, c, q) : c;
   return ok;
 }
 
 // Wraps the revolute joints of both branches near `near`; fit[j - 1] is the mask of the lanes
 // where joint j fits its limits.
+template <bool kKeep>
 std::array<Mask2, kNumJoints - 1> wrap_lanes(const RobotModel& model, BranchLanes& q,
                                              const JointVector& near) {
   std::array<Mask2, kNumJoints - 1> fit;
-  for (int j = 1; j < kNumJoints; ++j) fit[j - 1] = wrap_into(q[j], model.limits[j], near[j]);
+  for (int j = 1; j < kNumJoints; ++j) {
+    fit[j - 1] = wrap_into<kKeep>(q[j], model.limits[j], near[j]);
+  }
   return fit;
 }
 
@@ -96,10 +116,11 @@ void unpack(const BranchLanes& q, const std::array<Mask2, kNumJoints - 1>& fit,
 
 // The closed-form solution without limits: both elbow branches, angles not wrapped. Returns
 // 0 or the IkError code of a pose no elbow can reach.
-int solve_raw(const RobotModel& model, const ToolPose& pose, BranchLanes& q, double& r_m) {
+[[gnu::always_inline]] inline int solve_raw(const RobotModel& model, const ToolPose& pose,
+                                            BranchLanes& q, double& r_m) {
   const auto& dh = model.dh;
-  if (!std::isfinite(pose.x_m) || !std::isfinite(pose.y_m) || !std::isfinite(pose.z_m) ||
-      !std::isfinite(pose.yaw_rad)) {
+  // finite: 0 * v is 0 for every finite v and NaN for NaN and infinities.
+  if (!(pose.x_m * 0.0 + pose.y_m * 0.0 + pose.z_m * 0.0 + pose.yaw_rad * 0.0 == 0.0)) {
     return static_cast<int>(IkError::kNotFinite);
   }
   // z: the prismatic joint alone.
@@ -133,7 +154,10 @@ int solve_raw(const RobotModel& model, const ToolPose& pose, BranchLanes& q, dou
   // angle itself: three atan2 in the lanes of two.
   const double k1 = a2 + a3 * c3, k2 = a3 * s3;
   V2d angles, elbows;
-  detail::atan2_fast(V2d{uy, k2}, V2d{ux, k1}, splat(s3), splat(c3), angles, elbows);
+  // past the reach test every input is finite; (0, 0) only at the shoulder axis of an arm with
+  // a2 = a3, which goes through the checked path.
+  const bool regular = r2 > 0.0 && std::abs(k1) + k2 > 0.0;
+  detail::atan2_fast(V2d{uy, k2}, V2d{ux, k1}, splat(s3), splat(c3), angles, elbows, !regular);
   const double q3p = elbows[0];
   const V2d phi = angles[0] - V2d{angles[1], -angles[1]};
   const V2d elbow = V2d{q3p, -q3p};
@@ -184,9 +208,9 @@ const char* joint_name(int index) {
 double wrap_angle(double rad) { return wrap_angle_inline(rad); }
 
 double joint_distance2(const JointVector& a, const JointVector& b) {
-  double s = 0.0;
-  for (int i = 0; i < kNumJoints; ++i) s += (a[i] - b[i]) * (a[i] - b[i]);
-  return s;
+  // summed in pairs (the IK hot path sums the same way, two branches at a time).
+  const double e0 = a[0] - b[0], e1 = a[1] - b[1], e2 = a[2] - b[2], e3 = a[3] - b[3];
+  return (e0 * e0 + e1 * e1) + (e2 * e2 + e3 * e3);
 }
 
 int first_joint_outside_limits(const RobotModel& model, const JointVector& q) {
@@ -250,7 +274,7 @@ int solve_unpacked(const RobotModel& model, const ToolPose& pose, const JointVec
                    std::array<JointVector, 2>& q, std::array<int, 2>& bad, double& r_m) {
   BranchLanes lanes;
   if (int code = solve_raw(model, pose, lanes, r_m); code != 0) return code;
-  unpack(lanes, wrap_lanes(model, lanes, near), q, bad);
+  unpack(lanes, wrap_lanes<true>(model, lanes, near), q, bad);
   return 0;
 }
 
@@ -283,13 +307,10 @@ int order_valid(std::array<JointVector, 2>& q, const JointVector& seed,
                               rad_to_deg(model.limits[j].max), joint_name(bad[1 - b])));
 }
 
-[[gnu::cold, gnu::noinline]] Error limit_error(const RobotModel& model, const BranchLanes& lanes,
-                                               const std::array<Mask2, kNumJoints - 1>& fit,
+// inverse() when no branch fits: inverse_all's error (out of line, off the hot path).
+[[gnu::cold, gnu::noinline]] Error first_error(const RobotModel& model, const ToolPose& pose,
                                                const JointVector& seed) {
-  std::array<JointVector, 2> q;
-  std::array<int, 2> bad;
-  unpack(lanes, fit, q, bad);
-  return limit_error(model, q, bad, seed);
+  return inverse_all(model, pose, seed).error();
 }
 
 }  // namespace
@@ -326,15 +347,27 @@ Result<JointVector> inverse(const RobotModel& model, const ToolPose& pose,
   if (int code = solve_raw(model, pose, q, r_m); code != 0) {
     return raw_error(model, pose, code, r_m);
   }
-  const std::array<Mask2, kNumJoints - 1> fit = wrap_lanes(model, q, seed);
-  const int valid = detail::lanes(detail::mask_and(detail::mask_and(fit[0], fit[1]), fit[2]));
-  if (valid == 0) return limit_error(model, q, fit, seed);
-  // joint_distance2 of each branch to the seed, in the same order of operations.
-  V2d d2 = splat(0.0);
-  for (int j = 0; j < kNumJoints; ++j) d2 += (q[j] - seed[j]) * (q[j] - seed[j]);
-  const bool pick1 = (valid == 2) | ((valid == 3) & (d2[1] < d2[0]));
+  const std::array<Mask2, kNumJoints - 1> fit = wrap_lanes<false>(model, q, seed);
+  if (detail::lanes(detail::mask_and(detail::mask_and(fit[0], fit[1]), fit[2])) == 0) {
+    return first_error(model, pose, seed);
+  }
+  // joint_distance2 of each branch to the seed, in the same order of operations, and the
+  // choice of branch as a lane mask: branch 1 when branch 0 does not fit, or when both fit and
+  // branch 1 is strictly nearer.
+  V2d e[kNumJoints];
+  for (int j = 0; j < kNumJoints; ++j) e[j] = q[j] - seed[j];
+  const V2d d2 = (e[0] * e[0] + e[1] * e[1]) + (e[2] * e[2] + e[3] * e[3]);
+  const Mask2 fits = detail::mask_and(detail::mask_and(fit[0], fit[1]), fit[2]);
+  const Mask2 nearer1 = detail::lt(V2d{d2[1], d2[1]}, V2d{d2[0], d2[0]});
+  const Mask2 fit0 = V2d{fits[0], fits[0]}, fit1 = V2d{fits[1], fits[1]};
+  const Mask2 pick1 =
+      detail::mask_or(detail::mask_andnot(fit0, fit1), detail::mask_and(fit1, nearer1));
+  // joints (0, 1) and (2, 3) of the chosen branch.
+  const V2d j01 = select(pick1, V2d{q[0][1], q[1][1]}, V2d{q[0][0], q[1][0]});
+  const V2d j23 = select(pick1, V2d{q[2][1], q[3][1]}, V2d{q[2][0], q[3][0]});
   JointVector out;
-  for (int j = 0; j < kNumJoints; ++j) out[j] = select(pick1, q[j][1], q[j][0]);
+  std::memcpy(&out[0], &j01, sizeof j01);
+  std::memcpy(&out[2], &j23, sizeof j23);
   return out;
 }
 
