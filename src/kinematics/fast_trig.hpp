@@ -38,6 +38,9 @@ inline Mask2 mask_and(Mask2 a, Mask2 b) { return _mm_and_pd(a, b); }
 inline Mask2 mask_or(Mask2 a, Mask2 b) { return _mm_or_pd(a, b); }
 // b and not a.
 inline Mask2 mask_andnot(Mask2 a, Mask2 b) { return _mm_andnot_pd(a, b); }
+// Lane minimum and maximum of numbers (no NaN).
+inline V2d min(V2d a, V2d b) { return _mm_min_pd(a, b); }
+inline V2d max(V2d a, V2d b) { return _mm_max_pd(a, b); }
 // Bitwise select: a where the mask lane is all ones, b where it is zero.
 inline V2d select(Mask2 m, V2d a, V2d b) {
   return _mm_or_pd(_mm_and_pd(m, a), _mm_andnot_pd(m, b));
@@ -60,6 +63,8 @@ inline V2d select(Mask2 m, V2d a, V2d b) {
   const V2i mi = std::bit_cast<V2i>(m);
   return std::bit_cast<V2d>((mi & std::bit_cast<V2i>(a)) | (~mi & std::bit_cast<V2i>(b)));
 }
+inline V2d min(V2d a, V2d b) { return select(lt(a, b), a, b); }
+inline V2d max(V2d a, V2d b) { return select(lt(b, a), a, b); }
 inline int lanes(Mask2 m) {
   const V2i mi = std::bit_cast<V2i>(m);
   return static_cast<int>(mi[0] != 0) | (static_cast<int>(mi[1] != 0) << 1);
@@ -245,10 +250,15 @@ inline double atan2_fast(double y, double x) {
   const double hi = select(i2, kAtanHi2, select(i1, kAtanHi1, 0.0));
   const double lo = select(i2, kAtanLo2, select(i1, kAtanLo1, 0.0));
   const double z = (mn - f * mx) / (mx + f * mn);
-  double t = hi - ((atan_tail(z) - lo) - z);
-  t = select(ay > ax, kPio2Hi - (t - kPio2Lo), t);
-  t = select(x < 0.0, kPiHi - (t - kPiLo), t);
-  return std::bit_cast<double>(std::bit_cast<std::uint64_t>(t) |
+  const double t = hi - ((atan_tail(z) - lo) - z);
+  // the octant in one step: a - (u - a_lo) with (a, u) = (0, -t), (pi/2, t) when |y| > |x|,
+  // (pi, t) when x < 0, (pi/2, -t) for both.
+  const bool swapped = ay > ax, neg = x < 0.0;
+  const double a = select(neg && !swapped, kPiHi, select(swapped, kPio2Hi, 0.0));
+  const double a_lo = select(neg && !swapped, kPiLo, select(swapped, kPio2Lo, 0.0));
+  const double u = select(swapped != neg, t, -t);
+  const double r = a - (u - a_lo);
+  return std::bit_cast<double>(std::bit_cast<std::uint64_t>(r) |
                                (std::bit_cast<std::uint64_t>(y) & kSignBit));
 }
 
@@ -267,19 +277,30 @@ inline V2d atan2_lanes(V2d y, V2d x) {
   const V2d ax = abs(x), ay = abs(y);
   const V2d zero = splat(0.0);
   const Mask2 swapped = lt(ax, ay);
-  const V2d mn = select(swapped, ax, ay);
-  const V2d mx = select(swapped, ay, ax);
+  const V2d mn = min(ay, ax);
+  const V2d mx = max(ay, ax);
   const AtanLaneConstants& k = atan_lane_constants;
   const Mask2 i1 = le(k.split1 * mx, mn), i2 = le(k.split2 * mx, mn);
-  // i2 implies i1, so a masked constant stands for select(i1, c, 0).
-  const V2d f = mask_and(i1, k.half) + mask_and(i2, k.half);
+  // i2 implies i1, so a masked constant stands for select(i1, c, 0). The three candidate
+  // quotients are formed while the interval is being decided (the same operations as
+  // (mn - f mx) / (mx + f mn) for f = 0, 1/2, 1).
   const V2d hi = select(i2, k.hi2, mask_and(i1, k.hi1));
   const V2d lo = select(i2, k.lo2, mask_and(i1, k.lo1));
-  const V2d z = (mn - f * mx) / (mx + f * mn);
-  V2d t = hi - ((atan_tail(z) - lo) - z);
-  t = select(swapped, k.pio2_hi - (t - k.pio2_lo), t);
-  t = select(lt(x, zero), k.pi_hi - (t - k.pi_lo), t);
-  return std::bit_cast<V2d>(std::bit_cast<V2i>(t) | sign_bits(y));
+  const V2d num = select(i2, mn - mx, select(i1, mn - k.half * mx, mn));
+  const V2d den = select(i2, mx + mn, select(i1, mx + k.half * mn, mx));
+  const V2d z = num / den;
+  const V2d t = hi - ((atan_tail(z) - lo) - z);
+  // the octant in one step, as in the scalar form.
+  const Mask2 neg = lt(x, zero);
+  const Mask2 pi_side = mask_andnot(swapped, neg);
+  const V2d a = select(pi_side, k.pi_hi, mask_and(swapped, k.pio2_hi));
+  const V2d a_lo = select(pi_side, k.pi_lo, mask_and(swapped, k.pio2_lo));
+  // u = t where exactly one of swapped and neg holds, else -t: flip the sign bit of t.
+  const V2i flip =
+      ~(std::bit_cast<V2i>(swapped) ^ std::bit_cast<V2i>(neg)) & std::bit_cast<V2i>(splat(-0.0));
+  const V2d u = std::bit_cast<V2d>(std::bit_cast<V2i>(t) ^ flip);
+  const V2d r = a - (u - a_lo);
+  return std::bit_cast<V2d>(std::bit_cast<V2i>(r) | sign_bits(y));
 }
 
 }  // namespace trig

@@ -143,7 +143,7 @@ void unpack(const BranchLanes& q, const std::array<Mask2, kNumJoints - 1>& fit,
   const double a2 = dh[1].a_m, a3 = dh[2].a_m;
   const double r2 = ux * ux + uy * uy;
   // the division depends on the model alone: it runs while the target is being read.
-  double c3 = (r2 - a2 * a2 - a3 * a3) * (1.0 / (2.0 * a2 * a3));
+  double c3 = (r2 - (a2 * a2 + a3 * a3)) * (1.0 / (2.0 * a2 * a3));
   if (c3 > 1.0 + kReachSlack || c3 < -1.0 - kReachSlack) [[unlikely]] {
     r_m = std::sqrt(r2);  // for the message
     return static_cast<int>(c3 > 0.0 ? IkError::kBeyondReach : IkError::kInsideDeadZone);
@@ -164,7 +164,7 @@ void unpack(const BranchLanes& q, const std::array<Mask2, kNumJoints - 1>& fit,
   q[0] = splat(d1);
   q[1] = phi - (dh[0].theta_rad + dh[1].theta_rad);
   q[2] = elbow - dh[2].theta_rad;
-  q[3] = pose.yaw_rad - phi - elbow - dh[3].theta_rad;
+  q[3] = (pose.yaw_rad - dh[3].theta_rad) - (phi + elbow);
   return 0;
 }
 
