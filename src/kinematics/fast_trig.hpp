@@ -184,7 +184,7 @@ inline T atan_tail(T z) {
   const T q47 = p45 + w2 * p67;
   const T q8a = p89 + w2 * atan_coef<T>(10);
   const T q = (q03 + w4 * q47) + (w4 * w4) * q8a;
-  return z * (w * q);
+  return (z * w) * q;  // z^3 is ready long before q
 }
 
 constexpr std::uint64_t kSignBit = std::uint64_t{1} << 63;

@@ -23,6 +23,9 @@ constexpr double kTwoPi = 2.0 * kPi;
 constexpr double kReachSlack = 1e-12;
 // A joint range below this (rad) holds at most one turn of an angle, with margin for rounding.
 constexpr double kNarrowRange = 6.0;
+// Below this yaw magnitude (rad) the hot path of inverse() takes its angles without range
+// checks.
+constexpr double kBoundedAngle = 1e9;
 // Below this magnitude the turn count of an angle fits the 1.5 * 2^52 rounding trick.
 constexpr double kTurnRange = 1e15;
 
@@ -53,9 +56,10 @@ inline double wrap_angle_inline(double rad) {
 using BranchLanes = std::array<V2d, kNumJoints>;
 
 // Shifts each lane of `q` by whole turns into [lim.min, lim.max], choosing the turn nearest to
-// `near`. Returns the mask of the lanes that fit; with kKeep the others are left unchanged,
-// without it they hold some turn of the angle (for the hot path, which never reads them). No
-// data-dependent branches: random targets defeat branch prediction.
+// `near`. Returns the mask of the lanes that fit. With kKeep the others are left unchanged and
+// any angle is handled; without it (the hot path, which never reads the lanes that do not fit)
+// |q| must stay below kBoundedAngle. No data-dependent branches: random targets defeat branch
+// prediction.
 template <bool kKeep>
 Mask2 wrap_into(V2d& q, const JointLimit& lim, double near) {
   constexpr double kShift = detail::trig::kRoundShift;
@@ -65,10 +69,13 @@ Mask2 wrap_into(V2d& q, const JointLimit& lim, double near) {
     // q bit-exact).
     const V2d v = (q - 0.5 * (lim.min + lim.max)) * (1.0 / kTwoPi);
     const V2d c = q - ((v + kShift) - kShift) * kTwoPi;
-    const Mask2 ok =
-        detail::mask_and(detail::mask_and(detail::le(splat(lim.min), c), detail::le(c, max)),
-                         detail::lt(detail::abs(v), splat(kTurnRange)));
-    q = kKeep ? select(ok, c, q) : c;
+    Mask2 ok = detail::mask_and(detail::le(splat(lim.min), c), detail::le(c, max));
+    if constexpr (kKeep) {
+      ok = detail::mask_and(ok, detail::lt(detail::abs(v), splat(kTurnRange)));
+      q = select(ok, c, q);
+    } else {
+      q = c;
+    }
     return ok;
   }
   // the lowest turn at or above lim.min, and the next one if it fits and is nearer.
@@ -79,10 +86,14 @@ Mask2 wrap_into(V2d& q, const JointLimit& lim, double near) {
   const V2d c1 = c0 + kTwoPi;
   const Mask2 use_c1 = detail::mask_and(detail::le(c1, max),
                                         detail::lt(detail::abs(c1 - near), detail::abs(c0 - near)));
-  const Mask2 ok =
-      detail::mask_and(detail::le(c0, max), detail::lt(detail::abs(u), splat(kTurnRange)));
+  Mask2 ok = detail::le(c0, max);
   const V2d c = select(use_c1, c1, c0);
-  q = kKeep ? select(ok, c, q) : c;
+  if constexpr (kKeep) {
+    ok = detail::mask_and(ok, detail::lt(detail::abs(u), splat(kTurnRange)));
+    q = select(ok, c, q);
+  } else {
+    q = c;
+  }
   return ok;
 }
 
@@ -307,10 +318,14 @@ int order_valid(std::array<JointVector, 2>& q, const JointVector& seed,
                               rad_to_deg(model.limits[j].max), joint_name(bad[1 - b])));
 }
 
-// inverse() when no branch fits: inverse_all's error (out of line, off the hot path).
-[[gnu::cold, gnu::noinline]] Error first_error(const RobotModel& model, const ToolPose& pose,
-                                               const JointVector& seed) {
-  return inverse_all(model, pose, seed).error();
+// inverse() through inverse_all: for the error paths and for angles too large for the hot
+// path (out of line).
+[[gnu::cold, gnu::noinline]] Result<JointVector> inverse_general(const RobotModel& model,
+                                                                 const ToolPose& pose,
+                                                                 const JointVector& seed) {
+  Result<IkSolutions> all = inverse_all(model, pose, seed);
+  if (!all) return all.error();
+  return all->solutions[0];
 }
 
 }  // namespace
@@ -342,6 +357,12 @@ Result<IkSolutions> inverse_all(const RobotModel& model, const ToolPose& pose,
 // the two lanes and the choice made without branching on the data.
 Result<JointVector> inverse(const RobotModel& model, const ToolPose& pose,
                             const JointVector& seed) {
+  // the joint angles before wrapping are the yaw and a few turns plus the DH offsets (the
+  // offsets of any real table are small; above about 1e15 rad no double angle means anything).
+  const bool bounded = std::abs(pose.yaw_rad) < kBoundedAngle;  // false for NaN
+  if (!bounded) [[unlikely]] {
+    return inverse_general(model, pose, seed);
+  }
   BranchLanes q;
   double r_m = 0.0;
   if (int code = solve_raw(model, pose, q, r_m); code != 0) {
@@ -349,7 +370,7 @@ Result<JointVector> inverse(const RobotModel& model, const ToolPose& pose,
   }
   const std::array<Mask2, kNumJoints - 1> fit = wrap_lanes<false>(model, q, seed);
   if (detail::lanes(detail::mask_and(detail::mask_and(fit[0], fit[1]), fit[2])) == 0) {
-    return first_error(model, pose, seed);
+    return inverse_general(model, pose, seed);
   }
   // joint_distance2 of each branch to the seed, in the same order of operations, and the
   // choice of branch as a lane mask: branch 1 when branch 0 does not fit, or when both fit and

@@ -109,6 +109,18 @@ TEST(Ik, InverseIsTheFirstOfInverseAll) {
       EXPECT_EQ(*one, all->solutions[0]);
     }
   }
+  // yaws beyond the hot path's range and non-finite ones take the general path.
+  for (double yaw : {1e12 + 0.3, -3e15, 1e300, double{NAN}, double{INFINITY}}) {
+    const ToolPose p{0.2, 0.05, 0.0, yaw};
+    auto one = inverse(model(), p, model().home);
+    auto all = inverse_all(model(), p, model().home);
+    ASSERT_EQ(one.ok(), all.ok()) << yaw;
+    if (one) {
+      EXPECT_EQ(*one, all->solutions[0]) << yaw;
+    } else {
+      EXPECT_EQ(one.error().code, all.error().code) << yaw;
+    }
+  }
 }
 
 TEST(WrapAngle, WrapsIntoMinusPiPi) {
