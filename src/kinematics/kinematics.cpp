@@ -126,17 +126,25 @@ void unpack(const BranchLanes& q, const std::array<Mask2, kNumJoints - 1>& fit,
 }
 
 // The closed-form solution without limits: both elbow branches, angles not wrapped. Returns
-// 0 or the IkError code of a pose no elbow can reach.
+// 0 or the IkError code of a pose no elbow can reach. Without kChecked (the hot path, whose
+// yaw is known finite) a failure of any kind returns kUnchecked, and the caller asks the
+// checked form which one it was: a NaN or infinity in x, y or z fails the Z or reach test.
+constexpr int kUnchecked = -1;
+template <bool kChecked>
 [[gnu::always_inline]] inline int solve_raw(const RobotModel& model, const ToolPose& pose,
                                             BranchLanes& q, double& r_m) {
   const auto& dh = model.dh;
-  // finite: 0 * v is 0 for every finite v and NaN for NaN and infinities.
-  if (!(pose.x_m * 0.0 + pose.y_m * 0.0 + pose.z_m * 0.0 + pose.yaw_rad * 0.0 == 0.0)) {
-    return static_cast<int>(IkError::kNotFinite);
+  if constexpr (kChecked) {
+    if (!std::isfinite(pose.x_m) || !std::isfinite(pose.y_m) || !std::isfinite(pose.z_m) ||
+        !std::isfinite(pose.yaw_rad)) {
+      return static_cast<int>(IkError::kNotFinite);
+    }
   }
   // z: the prismatic joint alone.
   const double d1 = pose.z_m - dh[0].d_m - dh[1].d_m - dh[2].d_m - dh[3].d_m;
-  if (!model.limits[0].contains(d1)) return static_cast<int>(IkError::kZOutOfTravel);
+  if (!model.limits[0].contains(d1)) {
+    return kChecked ? static_cast<int>(IkError::kZOutOfTravel) : kUnchecked;
+  }
   // planar part: wrist centre relative to the shoulder axis.
   double ux = pose.x_m, uy = pose.y_m;
   if (dh[3].a_m != 0.0) {
@@ -155,8 +163,9 @@ void unpack(const BranchLanes& q, const std::array<Mask2, kNumJoints - 1>& fit,
   const double r2 = ux * ux + uy * uy;
   // the division depends on the model alone: it runs while the target is being read.
   double c3 = (r2 - (a2 * a2 + a3 * a3)) * (1.0 / (2.0 * a2 * a3));
-  if (c3 > 1.0 + kReachSlack || c3 < -1.0 - kReachSlack) [[unlikely]] {
-    r_m = std::sqrt(r2);  // for the message
+  if (!(c3 <= 1.0 + kReachSlack && c3 >= -1.0 - kReachSlack)) [[unlikely]] {
+    if constexpr (!kChecked) return kUnchecked;  // also NaN
+    r_m = std::sqrt(r2);                         // for the message
     return static_cast<int>(c3 > 0.0 ? IkError::kBeyondReach : IkError::kInsideDeadZone);
   }
   c3 = std::clamp(c3, -1.0, 1.0);
@@ -167,11 +176,11 @@ void unpack(const BranchLanes& q, const std::array<Mask2, kNumJoints - 1>& fit,
   V2d angles, elbows;
   // past the reach test every input is finite; (0, 0) only at the shoulder axis of an arm with
   // a2 = a3, which goes through the checked path.
-  const bool regular = r2 > 0.0 && std::abs(k1) + k2 > 0.0;
+  const bool regular = a2 != a3 || (r2 > 0.0 && std::abs(k1) + k2 > 0.0);
   detail::atan2_fast(V2d{uy, k2}, V2d{ux, k1}, splat(s3), splat(c3), angles, elbows, !regular);
-  const double q3p = elbows[0];
-  const V2d phi = angles[0] - V2d{angles[1], -angles[1]};
-  const V2d elbow = V2d{q3p, -q3p};
+  const V2d plus_minus = {1.0, -1.0};  // branch 0 has the elbow up (q3 >= 0)
+  const V2d phi = splat(angles[0]) - splat(angles[1]) * plus_minus;
+  const V2d elbow = elbows * plus_minus;
   q[0] = splat(d1);
   q[1] = phi - (dh[0].theta_rad + dh[1].theta_rad);
   q[2] = elbow - dh[2].theta_rad;
@@ -284,7 +293,7 @@ namespace {
 int solve_unpacked(const RobotModel& model, const ToolPose& pose, const JointVector& near,
                    std::array<JointVector, 2>& q, std::array<int, 2>& bad, double& r_m) {
   BranchLanes lanes;
-  if (int code = solve_raw(model, pose, lanes, r_m); code != 0) return code;
+  if (int code = solve_raw<true>(model, pose, lanes, r_m); code != 0) return code;
   unpack(lanes, wrap_lanes<true>(model, lanes, near), q, bad);
   return 0;
 }
@@ -365,8 +374,8 @@ Result<JointVector> inverse(const RobotModel& model, const ToolPose& pose,
   }
   BranchLanes q;
   double r_m = 0.0;
-  if (int code = solve_raw(model, pose, q, r_m); code != 0) {
-    return raw_error(model, pose, code, r_m);
+  if (solve_raw<false>(model, pose, q, r_m) != 0) [[unlikely]] {
+    return inverse_general(model, pose, seed);
   }
   const std::array<Mask2, kNumJoints - 1> fit = wrap_lanes<false>(model, q, seed);
   if (detail::lanes(detail::mask_and(detail::mask_and(fit[0], fit[1]), fit[2])) == 0) {

@@ -213,6 +213,15 @@ TEST(Ik, RejectsNonFiniteTarget) {
   auto r = inverse(model(), {NAN, 0.0, 0.0, 0.0}, model().home);
   ASSERT_FALSE(r);
   EXPECT_EQ(r.error().code, static_cast<int>(IkError::kNotFinite));
+  for (const ToolPose& p :
+       {ToolPose{0.2, NAN, 0.0, 0.0}, ToolPose{0.2, 0.0, NAN, 0.0}, ToolPose{0.2, 0.0, 0.0, NAN},
+        ToolPose{INFINITY, 0.0, 0.0, 0.0}, ToolPose{0.2, -INFINITY, 0.0, 0.0},
+        ToolPose{0.2, 0.0, 0.0, INFINITY}}) {
+    auto e = inverse(model(), p, model().home);
+    ASSERT_FALSE(e);
+    EXPECT_EQ(e.error().code, static_cast<int>(IkError::kNotFinite));
+    EXPECT_NE(e.error().message.find("not finite"), std::string::npos);
+  }
 }
 
 TEST(Jacobian, MatchesFiniteDifferences) {
