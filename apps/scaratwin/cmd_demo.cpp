@@ -3,14 +3,22 @@
 // paper's three twin functions: mirror, control, and the colour-sorting prediction followed by
 // its physical replay. Writes the database and the report; exits 0 only if every cube ends in
 // its tray. `--serial /dev/ttyACM0` drives a real Arduino instead of the emulator.
+#include <arpa/inet.h>
+#include <netinet/in.h>
+#include <poll.h>
+#include <sys/socket.h>
 #include <unistd.h>
 
 #include <atomic>
+#include <cerrno>
 #include <chrono>
 #include <csignal>
 #include <cstdio>
+#include <cstring>
+#include <optional>
 #include <random>
 #include <thread>
+#include <utility>
 
 #include <fmt/format.h>
 
@@ -35,6 +43,60 @@ struct DemoArgs {
   double robot_speed = 1.0;
   unsigned seed = 7;
   double mirror_s = 6.0;
+};
+
+// The emulated robot's jog buttons, pressed through the emulator's side channel (a line-based
+// TCP service on 127.0.0.1, docs/firmware.md): the operator at the robot of the paper's
+// mirror function.
+class EmulatorButtons {
+ public:
+  static Result<EmulatorButtons> connect(std::uint16_t port) {
+    EmulatorButtons b;
+    b.fd_ = ::socket(AF_INET, SOCK_STREAM | SOCK_CLOEXEC, 0);
+    sockaddr_in addr{};
+    addr.sin_family = AF_INET;
+    addr.sin_port = htons(port);
+    addr.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
+    if (b.fd_ < 0 || ::connect(b.fd_, reinterpret_cast<sockaddr*>(&addr), sizeof addr) != 0) {
+      return Error{
+          97, fmt::format("emulator side channel 127.0.0.1:{}: {}", port, std::strerror(errno))};
+    }
+    if (Status s = b.command("rate 0"); !s) return s.error();  // no truth lines, replies only
+    return b;
+  }
+  EmulatorButtons(EmulatorButtons&& o) noexcept : fd_(std::exchange(o.fd_, -1)) {}
+  EmulatorButtons& operator=(EmulatorButtons&&) = delete;
+  ~EmulatorButtons() {
+    if (fd_ >= 0) ::close(fd_);
+  }
+  // Holds `button` ("j2+", "z-", ...) for `ms` of the robot's time.
+  Status press(const std::string& button, int ms) {
+    return command(fmt::format("press {} {}", button, ms));
+  }
+
+ private:
+  EmulatorButtons() = default;
+  Status command(const std::string& line) {
+    const std::string out = line + "\n";
+    if (::send(fd_, out.data(), out.size(), MSG_NOSIGNAL) != static_cast<ssize_t>(out.size())) {
+      return Error{97, "emulator side channel: send failed"};
+    }
+    std::string reply;
+    char c = 0;
+    while (reply.size() < 512) {
+      pollfd p{fd_, POLLIN, 0};
+      if (::poll(&p, 1, 2000) != 1 || ::recv(fd_, &c, 1, 0) != 1) break;
+      if (c == '\n') {
+        if (reply.rfind("OK", 0) == 0) return Ok{};
+        if (reply.rfind("ERR", 0) == 0) return Error{97, "emulator: " + reply};
+        reply.clear();  // a TR line sent before `rate 0` took effect
+        continue;
+      }
+      reply.push_back(c);
+    }
+    return Error{97, "emulator side channel: no reply to '" + line + "'"};
+  }
+  int fd_ = -1;
 };
 
 std::atomic<bool> g_interrupted{false};
@@ -110,14 +172,6 @@ Status spawn_all(Hub& hub, const std::vector<SortItem>& items) {
   return Ok{};
 }
 
-// Time from the start of a series until its joints first move.
-double motion_start(const RobotModel& model, const std::vector<JointRecord>& s) {
-  for (const JointRecord& r : s) {
-    if (tool_distance(model, r.q, s.front().q) > 1e-4) return r.t_s;
-  }
-  return s.empty() ? 0.0 : s.front().t_s;
-}
-
 struct DemoOutcome {
   int in_trays_prediction = 0;
   int in_trays_replay = 0;
@@ -125,7 +179,8 @@ struct DemoOutcome {
   double virt_phys_mm = 0.0;
 };
 
-Result<DemoOutcome> run_phases(Hub& hub, TwinDb& db, const DemoArgs& a, std::int64_t demo) {
+Result<DemoOutcome> run_phases(Hub& hub, TwinDb& db, const DemoArgs& a, std::int64_t demo,
+                               EmulatorButtons* buttons) {
   const RobotModel& model = hub.model();
   DemoOutcome out;
   constexpr int kSteps = 5;
@@ -142,17 +197,27 @@ Result<DemoOutcome> run_phases(Hub& hub, TwinDb& db, const DemoArgs& a, std::int
     if (!s) return s.error();
   }
 
-  // 2. mirror: the robot moves by itself (jogged), the virtual robot follows it.
-  step(2, kSteps, "digital mirror: jog the robot, the virtual robot follows");
+  // 2. mirror: the robot is moved by hand (its jog buttons; on a real board, which we cannot
+  // reach, jog commands), the virtual robot follows it.
+  step(2, kSteps,
+       buttons ? "digital mirror: press the robot's jog buttons, the virtual robot follows"
+               : "digital mirror: jog the robot, the virtual robot follows");
   {
-    auto run = hub.begin_run("mirror", "three jog motions", demo);
+    auto run =
+        hub.begin_run("mirror", buttons ? "three jog-button presses" : "three jog motions", demo);
     if (!run) return run.error();
     const MirrorCounters before = hub.mirror_counters();
     Ticker t(hub, "mirror");
     const std::pair<protocol::Axis, double> jogs[] = {
         {protocol::Axis::kJ2, 250.0}, {protocol::Axis::kJ3, -400.0}, {protocol::Axis::kZ, -3000.0}};
-    for (const auto& [axis, delta] : jogs) {
-      if (Status s = hub.jog(axis, delta); !s) return s.error();
+    const std::pair<const char*, int> presses[] = {{"j2+", 500}, {"j3-", 600}, {"z-", 900}};
+    for (int i = 0; i < 3; ++i) {
+      if (buttons) {
+        fmt::print("    pressing the {} button for {} ms\n", presses[i].first, presses[i].second);
+        if (Status s = buttons->press(presses[i].first, presses[i].second); !s) return s.error();
+      } else if (Status s = hub.jog(jogs[i].first, jogs[i].second); !s) {
+        return s.error();
+      }
       std::this_thread::sleep_for(std::chrono::duration<double>(a.mirror_s / 3));
     }
     if (Status s = hub.wait_idle(60.0); !s) return s.error();
@@ -287,8 +352,9 @@ Result<DemoOutcome> run_phases(Hub& hub, TwinDb& db, const DemoArgs& a, std::int
     auto pred = db.samples(prediction, SampleSource::kVirtual);
     auto phys = db.samples(*run, SampleSource::kPhysical);
     if (pred && phys && !pred->empty() && !phys->empty()) {
-      const Deviation d = compare_runs(model, *pred, *phys,
-                                       motion_start(model, *phys) - motion_start(model, *pred));
+      // at equal progress along the predicted path: the robot's clock and the simulator's
+      // differ, only where the robots went counts
+      const Deviation d = compare_runs_by_progress(model, as_plan(*pred), *pred, *phys);
       hub.record_metric(metric::kReplayToolMaxMm, m_to_mm(d.tool_max_m), "mm");
       hub.record_metric(metric::kReplayToolRmsMm, m_to_mm(d.tool_rms_m), "mm");
       hub.record_metric(metric::kReplayFinalMm, m_to_mm(d.tool_final_m), "mm");
@@ -344,6 +410,7 @@ int run_demo(const CommonOptions& common, const DemoArgs& a) {
   // the physical robot: a real board or our firmware in the emulator.
   std::unique_ptr<ChildProcess> robot;
   std::string device = a.serial;
+  std::uint16_t side_port = 0;  // the emulator's side channel (its buttons)
   if (device.empty()) {
     std::vector<std::string> robot_args{"--speed", fmt::format("{}", a.robot_speed)};
     if (!common.config_path.empty()) {
@@ -363,6 +430,12 @@ int run_demo(const CommonOptions& common, const DemoArgs& a) {
     }
     device = pty->substr(pty->find("pty: ") + 5);
     fmt::print("physical robot: firmware in the AVR emulator on {}\n", device);
+    auto side = robot->wait_for_line("side channel: ", 5s);
+    if (!side) {
+      std::fprintf(stderr, "scaratwin demo: emulator: %s\n", side.error().message.c_str());
+      return kExitFailure;
+    }
+    side_port = static_cast<std::uint16_t>(std::stoi(side->substr(side->rfind(':') + 1)));
   } else {
     fmt::print("physical robot: {}\n", device);
   }
@@ -385,8 +458,17 @@ int run_demo(const CommonOptions& common, const DemoArgs& a) {
     std::fprintf(stderr, "scaratwin demo: %s\n", demo.error().message.c_str());
     return kExitFailure;
   }
+  std::optional<EmulatorButtons> buttons;
+  if (side_port != 0) {
+    auto b = EmulatorButtons::connect(side_port);
+    if (!b) {
+      std::fprintf(stderr, "scaratwin demo: %s\n", b.error().message.c_str());
+      return kExitFailure;
+    }
+    buttons.emplace(std::move(*b));
+  }
   const auto t0 = std::chrono::steady_clock::now();
-  auto outcome = run_phases(**hub, **db, a, *demo);
+  auto outcome = run_phases(**hub, **db, a, *demo, buttons ? &*buttons : nullptr);
   const double dur = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   const bool ok = outcome && outcome->in_trays_replay == kNumColors;
   (void)(*db)->end_run(*demo, ok ? "ok" : "failed", dur);

@@ -84,6 +84,144 @@ double tool_distance(const RobotModel& model, const JointVector& a, const JointV
   return std::hypot(pa.x_m - pb.x_m, pa.y_m - pb.y_m, pa.z_m - pb.z_m);
 }
 
+namespace {
+
+// Weight of an angle against a length when finding the nearest point of a plan: about the
+// length of the arm's links, so a radian counts like the tool moving 0.1 m.
+constexpr double kRadianWeightM = 0.1;
+// Cost of skipping along the plan when following a run's progress, per metre of path skipped:
+// the descent to a cube and the lift after the grip pass the same poses, and the earlier one
+// is the run's. Small: a run off the path by e keeps lagging its true progress until that is
+// 2 * kSkipCost * e behind, which overstates its deviation by 2 %.
+constexpr double kSkipCost = 0.1;
+
+double weighted_distance2(const JointVector& a, const JointVector& b) {
+  double s = (a[0] - b[0]) * (a[0] - b[0]);
+  for (int j = 1; j < kNumJoints; ++j) {
+    const double d = (a[j] - b[j]) * kRadianWeightM;
+    s += d * d;
+  }
+  return s;
+}
+
+// Point of segment [qa, qb] nearest to q in the weighted metric: the parameter in [0, 1].
+double project_on_segment(const JointVector& qa, const JointVector& qb, const JointVector& q) {
+  double num = 0.0, den = 0.0;
+  for (int j = 0; j < kNumJoints; ++j) {
+    const double w = j == 0 ? 1.0 : kRadianWeightM * kRadianWeightM;
+    const double d = qb[j] - qa[j];
+    num += w * (q[j] - qa[j]) * d;
+    den += w * d * d;
+  }
+  return den > 0.0 ? std::clamp(num / den, 0.0, 1.0) : 0.0;
+}
+
+JointVector lerp(const JointVector& a, const JointVector& b, double u) {
+  JointVector q;
+  for (int j = 0; j < kNumJoints; ++j) q[j] = a[j] + u * (b[j] - a[j]);
+  return q;
+}
+
+}  // namespace
+
+PlanPoint nearest_on_plan(const RobotModel& model, const JointTrajectory& plan,
+                          const JointVector& q, double from_s, double to_s, double skip_cost) {
+  const auto& s = plan.samples;
+  SCARATWIN_CHECK(!s.empty(), "nearest_on_plan on an empty plan");
+  if (s.size() == 1) return {s.front().t_s, tool_distance(model, s.front().q, q)};
+  // the segments that overlap [from_s, to_s]; the first one starts at from_s
+  auto first = std::upper_bound(s.begin(), s.end(), from_s,
+                                [](double t, const JointSample& x) { return t < x.t_s; });
+  std::size_t k = first == s.begin() ? 0 : static_cast<std::size_t>(first - s.begin()) - 1;
+  k = std::min(k, s.size() - 2);
+  double seg_t = std::clamp(from_s, s[k].t_s, s[k + 1].t_s);
+  JointVector seg_q = sample_at(plan, seg_t);
+  double skipped = 0.0;  // path length from the point at from_s to the segment's start
+  double best_cost = INFINITY, best_t = seg_t;
+  JointVector best_q = seg_q;
+  for (; k + 1 < s.size(); ++k) {
+    const JointSample& b = s[k + 1];
+    if (seg_t > to_s) break;
+    const double u = project_on_segment(seg_q, b.q, q);
+    const double t = seg_t + u * (b.t_s - seg_t);
+    const JointVector p = lerp(seg_q, b.q, u);
+    const double cost = std::sqrt(weighted_distance2(p, q)) +
+                        skip_cost * (skipped + std::sqrt(weighted_distance2(seg_q, p)));
+    if (cost < best_cost) {  // strict: the earliest of equally near points
+      best_cost = cost;
+      best_t = t;
+      best_q = p;
+    }
+    skipped += std::sqrt(weighted_distance2(seg_q, b.q));
+    seg_t = b.t_s;
+    seg_q = b.q;
+  }
+  return {best_t, tool_distance(model, best_q, q)};
+}
+
+std::vector<double> plan_progress(const RobotModel& model, const JointTrajectory& plan,
+                                  const std::vector<JointRecord>& run, double window_s) {
+  std::vector<double> progress;
+  progress.reserve(run.size());
+  double at = plan.samples.empty() ? 0.0 : plan.samples.front().t_s;
+  for (const JointRecord& r : run) {
+    at = nearest_on_plan(model, plan, r.q, at, at + window_s, kSkipCost).t_s;
+    progress.push_back(at);
+  }
+  return progress;
+}
+
+Deviation compare_runs_by_progress(const RobotModel& model, const JointTrajectory& plan,
+                                   const std::vector<JointRecord>& a,
+                                   const std::vector<JointRecord>& b) {
+  Deviation d;
+  if (a.empty() || b.empty() || plan.samples.empty()) return d;
+  const std::vector<double> pa = plan_progress(model, plan, a);
+  const std::vector<double> pb = plan_progress(model, plan, b);
+  std::array<double, kNumJoints> sq{};
+  double tool_sq = 0.0;
+  std::size_t n = 0;
+  for (std::size_t i = 0; i < a.size(); ++i) {
+    // B's state at A's progress: between the last B sample at or before it and the next one
+    const auto it = std::upper_bound(pb.begin(), pb.end(), pa[i]);
+    JointVector qb;
+    if (it == pb.begin()) {
+      qb = b.front().q;
+    } else if (it == pb.end()) {
+      qb = b.back().q;
+    } else {
+      const std::size_t j = static_cast<std::size_t>(it - pb.begin());
+      const double span = pb[j] - pb[j - 1];
+      qb = lerp(b[j - 1].q, b[j].q, span > 0.0 ? (pa[i] - pb[j - 1]) / span : 0.0);
+    }
+    for (int j = 0; j < kNumJoints; ++j) {
+      const double e = std::abs(qb[j] - a[i].q[j]);
+      sq[j] += e * e;
+      d.joint_max[j] = std::max(d.joint_max[j], e);
+    }
+    const double te = tool_distance(model, a[i].q, qb);
+    tool_sq += te * te;
+    d.tool_max_m = std::max(d.tool_max_m, te);
+    d.t_s.push_back(a[i].t_s);
+    d.tool_err_m.push_back(te);
+    ++n;
+  }
+  for (int j = 0; j < kNumJoints; ++j) d.joint_rms[j] = std::sqrt(sq[j] / static_cast<double>(n));
+  d.tool_rms_m = std::sqrt(tool_sq / static_cast<double>(n));
+  d.tool_final_m = tool_distance(model, a.back().q, b.back().q);
+  return d;
+}
+
+JointTrajectory as_plan(const std::vector<JointRecord>& run) {
+  JointTrajectory plan;
+  plan.samples.reserve(run.size());
+  for (const JointRecord& r : run) {
+    if (!plan.samples.empty() && r.t_s <= plan.samples.back().t_s) continue;  // keep time order
+    plan.samples.push_back(JointSample{r.t_s, r.q, {}, {}});
+  }
+  return plan;
+}
+
 Deviation compare_runs(const RobotModel& model, const std::vector<JointRecord>& a,
                        const std::vector<JointRecord>& b, double offset) {
   Deviation d;

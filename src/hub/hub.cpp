@@ -18,6 +18,9 @@ using std::chrono::milliseconds;
 namespace {
 
 constexpr int kHubError = 80;
+// Plan time either side of the expected one in which the desync check looks for the nearest
+// point of the plan (the robot may run late or early by this much without an alarm).
+constexpr double kDesyncSlackS = 1.5;
 
 milliseconds ms(double s) { return milliseconds(static_cast<long long>(std::llround(s * 1000))); }
 
@@ -216,9 +219,13 @@ void Hub::on_device_state(const pr::DeviceState& st, const tr::RxPacket& rx) {
       }
     }
     if (expected_ != nullptr && expected_start_us_ != 0) {
-      const JointVector want =
-          sample_at(*expected_, static_cast<double>(rx.steady_us - expected_start_us_) / 1e6);
-      const double dev = tool_distance(model_, want, ps.q);
+      // off the planned path, not off the planned clock: the nearest point of the plan within
+      // the slack of its expected time (a queue underrun or a clock that runs at another rate
+      // shifts the timing without moving the tool off the path; lost steps do move it)
+      const double t_plan = static_cast<double>(rx.steady_us - expected_start_us_) / 1e6;
+      const double dev =
+          nearest_on_plan(model_, *expected_, ps.q, t_plan - kDesyncSlackS, t_plan + kDesyncSlackS)
+              .tool_distance_m;
       desync_over_ = dev > options_.desync_threshold_m ? desync_over_ + 1 : 0;
       if (desync_over_ == options_.desync_persist) {
         ++desync_alarms_;
@@ -430,6 +437,17 @@ Result<T> sim_reply(const char* what, Result<tr::SimChannel::Reply> r) {
 
 }  // namespace
 
+Status Hub::place_virtual(const JointVector& q) {
+  if (Status s = sim_mode(pr::SimMode::kMirror); !s) return s;
+  pr::JointData jd;
+  jd.t_us = static_cast<std::uint32_t>(tr::steady_now_us());
+  jd.q = q;
+  auto ja =
+      sim_reply<pr::JointApplied>("place the virtual robot", sim_->request(jd, milliseconds(2000)));
+  if (!ja) return ja.error();
+  return sim_mode(pr::SimMode::kSimulate);
+}
+
 Status Hub::sim_mode(pr::SimMode mode) {
   auto r = sim_reply<pr::Ack>("mode", sim_->request(pr::SetMode{mode}, milliseconds(2000)));
   if (!r) return r.error();
@@ -485,6 +503,10 @@ Result<pr::SimState> Hub::sim_state() {
 Status Hub::simulate_trajectory(const JointTrajectory& traj, double speed) {
   if (traj.samples.empty()) return Ok{};
   if (!(speed > 0.0)) return hub_error(fmt::format("speed {} must be > 0", speed));
+  // The virtual robot starts where the plan starts. A plan made from the physical robot's
+  // pose after the scene was reset (virtual robot at home) would otherwise begin with a jump
+  // that the simulated actuators make in a few tens of ms and the physical robot never makes.
+  if (Status s = place_virtual(traj.samples.front().q); !s) return s;
   const auto start = std::chrono::steady_clock::now();
   size_t next_event = 0;
   const auto record_state = [&]() -> Status {

@@ -196,18 +196,19 @@ Status write_report(TwinDb& db, const RobotModel& model, int64_t run_id,
     if (r.ref != 0) {
       auto pred = db.samples(r.ref, SampleSource::kVirtual);
       if (pred && !pred->empty() && !phys->empty()) {
-        const Deviation d = compare_runs(model, *pred, *phys);
+        const Deviation d = compare_runs_by_progress(model, as_plan(*pred), *pred, *phys);
         std::vector<double> mm;
         for (double e : d.tool_err_m) mm.push_back(m_to_mm(e));
         body += fmt::format(
-            "<p>Compared with the prediction (run {}): tool deviation max {:.3f} "
+            "<p>Compared with the prediction (run {}) at equal progress along its path (the "
+            "two clocks differ; where the robots went counts): tool deviation max {:.3f} "
             "mm, RMS {:.3f} mm, final {:.3f} mm.</p>\n",
             r.ref, m_to_mm(d.tool_max_m), m_to_mm(d.tool_rms_m), m_to_mm(d.tool_final_m));
-        body +=
-            "<div class='plots'>\n" +
-            svg::line_chart("prediction vs physical replay", "time (s)", "tool deviation (mm)",
-                            {{"|prediction - replay|", "#862e9c", d.t_s, mm, false}}, 480, 230) +
-            "</div>\n";
+        body += "<div class='plots'>\n" +
+                svg::line_chart(
+                    "prediction vs physical replay", "prediction time (s)", "tool deviation (mm)",
+                    {{"|prediction - replay|", "#862e9c", d.t_s, mm, false}}, 480, 230) +
+                "</div>\n";
       }
     }
     if (!events->empty()) {

@@ -6,6 +6,7 @@
 #include <boost/asio/steady_timer.hpp>
 #include <condition_variable>
 #include <deque>
+#include <future>
 #include <mutex>
 #include <optional>
 #include <string>
@@ -362,6 +363,23 @@ Channel<Out, In>::~Channel() {
     boost::asio::post(timer->get_executor(), [timer] { timer->cancel(); });
   }
   State::run(done);
+  // A packet being delivered right now may still be on its way to the handlers (they are
+  // called outside the lock): once they are cleared and the io thread has passed a barrier,
+  // none of the owner's handlers runs after this destructor returns (the owner may be going
+  // away with us).
+  {
+    std::lock_guard lock(state_->mutex);
+    state_->unsolicited = nullptr;
+    state_->state_handler = nullptr;
+  }
+  IoThread& io = link_.io_thread();
+  if (!io.in_io_thread()) {
+    auto passed = std::make_shared<std::promise<void>>();
+    auto future = passed->get_future();
+    boost::asio::post(io.context(), [passed] { passed->set_value(); });
+    // bounded: an io thread that no longer runs has no handler in flight either
+    (void)future.wait_for(std::chrono::seconds(2));
+  }
 }
 
 template <class Out, class In>

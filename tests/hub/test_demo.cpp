@@ -71,8 +71,15 @@ TEST(Demo, SortsEveryCubeAndRecordsTheTwin) {
     ASSERT_TRUE(by_kind.count(kind)) << kind;
     EXPECT_EQ(by_kind[kind].status, "ok") << kind;
   }
-  // mirror: no lost frames, every frame's latency recorded.
+  // mirror: the emulated robot's jog buttons moved it (the firmware reports each press as
+  // EV 4), no lost frames, every frame's latency recorded.
   const int64_t mirror = by_kind["mirror"].id;
+  EXPECT_EQ(by_kind["mirror"].label, "three jog-button presses");
+  auto mirror_events = (*db)->events(mirror);
+  ASSERT_TRUE(mirror_events);
+  int presses = 0;
+  for (const auto& [t, e] : *mirror_events) presses += e.rfind("robot: EV 4 ", 0) == 0 ? 1 : 0;
+  EXPECT_EQ(presses, 3);
   EXPECT_EQ(metric_of(**db, mirror, metric::kLostFrames), 0.0);
   EXPECT_GT(*(*db)->count("latencies", mirror), 200);
   EXPECT_LT(metric_of(**db, mirror, metric::kHubToSimMeanMs), 50.0);
@@ -84,9 +91,12 @@ TEST(Demo, SortsEveryCubeAndRecordsTheTwin) {
   const int64_t replay = by_kind["replay"].id;
   EXPECT_EQ(metric_of(**db, by_kind["prediction"].id, "prediction_cubes_in_tray"), 3.0);
   EXPECT_EQ(metric_of(**db, replay, metric::kCubesInTray), 3.0);
-  // the replay's lost reports are recorded (replay_lost_frames) but not yet zero: while a
-  // trajectory streams, the firmware misses report deadlines (see the issue notes).
-  EXPECT_FALSE(std::isnan(metric_of(**db, replay, metric::kReplayLostFrames)));
+  // no report lost while the plan streamed to the robot, and the replay followed the
+  // predicted path (compared by progress along it): no desync alarm, ends where it ended.
+  EXPECT_EQ(metric_of(**db, replay, metric::kReplayLostFrames), 0.0);
+  EXPECT_EQ(metric_of(**db, replay, metric::kDesyncAlarms), 0.0);
+  EXPECT_LT(metric_of(**db, replay, metric::kReplayFinalMm), 1.0);
+  EXPECT_LT(metric_of(**db, replay, metric::kReplayToolRmsMm), 2.0);
   EXPECT_EQ(by_kind["replay"].ref, by_kind["prediction"].id);
   auto phys = (*db)->samples(replay, SampleSource::kPhysical);
   auto virt = (*db)->samples(replay, SampleSource::kVirtual);

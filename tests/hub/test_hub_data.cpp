@@ -134,6 +134,65 @@ TEST(Analysis, ComparesRunsAndRaisesDesync) {
   EXPECT_GT(mon.worst_deviation_m(), 0.003);
 }
 
+// A plan out and back (shoulder 0 -> 0.6 rad -> 0), and runs of it at other paces.
+JointTrajectory out_and_back() {
+  JointTrajectory plan;
+  for (int i = 0; i <= 200; ++i) {
+    const double u = i <= 100 ? i / 100.0 : (200 - i) / 100.0;
+    plan.samples.push_back({i * 0.01, {0.1, 0.6 * u, 0.5, 0.0}, {}, {}});
+  }
+  return plan;
+}
+
+std::vector<JointRecord> run_of(const JointTrajectory& plan, double start_s, double rate,
+                                double pause_at_s, double pause_s, double dz_m) {
+  std::vector<JointRecord> run;
+  const double end_s = start_s + plan.duration_s() / rate + pause_s + 0.5;
+  for (double t = 0.0; t <= end_s; t += 0.01) {
+    double tp = (t - start_s) * rate;  // plan time reached
+    if (tp > pause_at_s) tp = std::max(pause_at_s, tp - pause_s * rate);
+    JointVector q = sample_at(plan, tp);
+    q[0] += dz_m;
+    run.push_back({t, static_cast<std::int64_t>(run.size()), q, 0.0});
+  }
+  return run;
+}
+
+TEST(Analysis, ComparesRunsOfOnePlanByProgressNotByTime) {
+  const RobotModel m = paper_robot();
+  const JointTrajectory plan = out_and_back();
+  const auto a = run_of(plan, 0.3, 1.0, 99.0, 0.0, 0.0);
+  // B starts later, runs 10 % slower and pauses 0.4 s at the turn: the same path
+  const auto b = run_of(plan, 0.8, 0.9, 1.0, 0.4, 0.0);
+  const Deviation by_time = compare_runs(m, a, b);
+  EXPECT_GT(by_time.tool_max_m, 0.02) << "timing alone separates the runs by time";
+  const Deviation d = compare_runs_by_progress(m, plan, a, b);
+  EXPECT_LT(d.tool_max_m, 2e-4);
+  EXPECT_LT(d.tool_final_m, 1e-9);
+  // progress is monotonic and spans the plan; the way back is not mistaken for the way out
+  const auto pb = plan_progress(m, plan, b);
+  ASSERT_EQ(pb.size(), b.size());
+  EXPECT_TRUE(std::is_sorted(pb.begin(), pb.end()));
+  EXPECT_NEAR(pb.back(), 2.0, 1e-9);
+  EXPECT_NEAR(pb[static_cast<std::size_t>((0.8 + 1.5 / 0.9 + 0.4) / 0.01)], 1.5, 0.02);
+  // the prediction itself as the plan gives the same answer
+  const Deviation self = compare_runs_by_progress(m, as_plan(a), a, b);
+  EXPECT_LT(self.tool_max_m, 2e-4);
+  // a real deviation counts in full: 2 mm in Z all along
+  const auto c = run_of(plan, 0.8, 0.9, 1.0, 0.4, 0.002);
+  const Deviation dz = compare_runs_by_progress(m, plan, a, c);
+  EXPECT_NEAR(dz.tool_max_m, 0.002, 2e-4);
+  EXPECT_NEAR(dz.tool_final_m, 0.002, 1e-9);
+  // nearest_on_plan: distance to the path within the window only
+  const PlanPoint near = nearest_on_plan(m, plan, sample_at(plan, 0.5), 0.0, 2.0);
+  EXPECT_NEAR(near.t_s, 0.5, 1e-9);
+  EXPECT_LT(near.tool_distance_m, 1e-12);
+  const PlanPoint back = nearest_on_plan(m, plan, sample_at(plan, 0.5), 1.2, 2.0);
+  EXPECT_NEAR(back.t_s, 1.5, 1e-9) << "the same pose on the way back";
+  const PlanPoint late = nearest_on_plan(m, plan, sample_at(plan, 0.5), 0.8, 1.2);
+  EXPECT_GT(late.tool_distance_m, 0.01) << "outside the window the pose is off the path";
+}
+
 TEST(Report, WritesPlotsAndThePapersFigures) {
   const fs::path dir = temp_dir("report");
   auto db = TwinDb::open(dir / "twin.db");

@@ -7,6 +7,7 @@
 
 #include "scaratwin/hub/twin_db.hpp"
 #include "scaratwin/kinematics/kinematics.hpp"
+#include "scaratwin/trajectory/trajectory.hpp"
 
 namespace scaratwin {
 
@@ -46,6 +47,36 @@ struct Deviation {
 };
 Deviation compare_runs(const RobotModel& model, const std::vector<JointRecord>& a,
                        const std::vector<JointRecord>& b, double b_time_offset_s = 0.0);
+
+// Where along a plan a joint state lies: the plan time of the nearest point of the plan's
+// polyline (joints linear between samples; angles weighted 0.1 m/rad against d1 in m) among
+// plan times [from_s, to_s], and the tool distance from the state to that point. With
+// `skip_cost` > 0 a later point must be nearer by that fraction of the path length between
+// the point at from_s and it: of two equally near points (a path that comes back the way it
+// went) the earlier wins, and a pause in the plan costs nothing to skip.
+struct PlanPoint {
+  double t_s = 0.0;
+  double tool_distance_m = 0.0;
+};
+PlanPoint nearest_on_plan(const RobotModel& model, const JointTrajectory& plan,
+                          const JointVector& q, double from_s, double to_s, double skip_cost = 0.0);
+
+// Plan time reached by each sample of a run of `plan` ("progress"): the nearest point of the
+// plan, searched forward only (a run never goes back along its plan), at most `window_s` of
+// plan time ahead of the previous sample's progress, the path skipped costing 10 % of its length.
+std::vector<double> plan_progress(const RobotModel& model, const JointTrajectory& plan,
+                                  const std::vector<JointRecord>& run, double window_s = 2.0);
+
+// Deviation of run B from run A where both ran `plan`, compared at equal progress along the
+// plan instead of at equal time: a later start, a pause or a clock running at another rate
+// does not count, only where the two robots went. Deviation::t_s holds A's times.
+Deviation compare_runs_by_progress(const RobotModel& model, const JointTrajectory& plan,
+                                   const std::vector<JointRecord>& a,
+                                   const std::vector<JointRecord>& b);
+
+// A recorded run as a plan (its samples, in time order), so that another run of the same plan
+// can be compared with it by progress: the replay against the prediction.
+JointTrajectory as_plan(const std::vector<JointRecord>& run);
 
 // Joint state of a recorded series at time t (linear interpolation, clamped).
 JointVector interpolate(const std::vector<JointRecord>& series, double t_s);

@@ -116,6 +116,9 @@ class Hub {
 
   // --- virtual robot ----------------------------------------------------------------------
   Status sim_mode(protocol::SimMode mode);
+  // Puts the virtual robot at `q` at once (kinematically, through mirror mode) and leaves the
+  // simulator in simulate mode.
+  Status place_virtual(const JointVector& q);
   Result<int> spawn_cube(CubeColor color, double x_m, double y_m);
   Status reset_scene();
   Result<std::vector<protocol::ObjectPose>> objects();
@@ -124,7 +127,8 @@ class Hub {
   Result<protocol::SimState> sim_state();
   // Runs `trajectory` in the simulator (simulate mode): streams joint targets at its pace
   // (`speed` times real time), grasps and releases at its events, and records the simulated
-  // joints as virtual samples. Returns when the last target is sent and the robot settled.
+  // joints as virtual samples. The virtual robot is first put at the trajectory's start. Returns
+  // when the last target is sent and the robot settled.
   Status simulate_trajectory(const JointTrajectory& trajectory, double speed = 1.0);
 
   // Link counters for reports and the progress line.
