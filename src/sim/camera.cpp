@@ -2,6 +2,8 @@
 // renderer into its offscreen framebuffer, rows flipped to top-first.
 #include "scaratwin/sim/camera.hpp"
 
+#include "scaratwin/vision/vision.hpp"
+
 #include <EGL/egl.h>
 #include <EGL/eglext.h>
 
@@ -226,20 +228,8 @@ Result<Image> Camera::render(const Simulation& sim, int width_px, int height_px)
 
 PixelPoint project(const CameraModel& camera, int width_px, int height_px,
                    const std::array<double, 3>& p) {
-  const CameraAxes a = camera_axes(camera);
-  const std::array<double, 3> d{p[0] - camera.pos_m[0], p[1] - camera.pos_m[1],
-                                p[2] - camera.pos_m[2]};
-  const auto dot = [](const std::array<double, 3>& u, const std::array<double, 3>& v) {
-    return u[0] * v[0] + u[1] * v[1] + u[2] * v[2];
-  };
-  const double xc = dot(d, a.x), yc = dot(d, a.y), depth = -dot(d, a.z);
   PixelPoint out;
-  if (!(depth > 0.0)) return out;
-  // symmetric frustum with the vertical field of view fovy (as MuJoCo's fixed cameras)
-  const double f_px =
-      0.5 * height_px / std::tan(0.5 * camera.fovy_deg * 3.14159265358979323846 / 180.0);
-  out.u_px = 0.5 * width_px + f_px * xc / depth;
-  out.v_px = 0.5 * height_px - f_px * yc / depth;
+  if (!scaratwin::project(camera, width_px, height_px, p, out.u_px, out.v_px)) return out;
   out.visible = out.u_px >= 0 && out.u_px < width_px && out.v_px >= 0 && out.v_px < height_px;
   return out;
 }

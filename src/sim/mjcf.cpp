@@ -8,6 +8,7 @@
 #include <fmt/format.h>
 
 #include "scaratwin/core/units.hpp"
+#include "scaratwin/vision/vision.hpp"
 
 namespace scaratwin::sim {
 namespace {
@@ -28,14 +29,7 @@ std::string quat_xz(double alpha, double theta) {
 }
 
 Vec3 sub(const Vec3& a, const Vec3& b) { return {a[0] - b[0], a[1] - b[1], a[2] - b[2]}; }
-Vec3 cross(const Vec3& a, const Vec3& b) {
-  return {a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]};
-}
 double norm(const Vec3& a) { return std::sqrt(a[0] * a[0] + a[1] * a[1] + a[2] * a[2]); }
-Vec3 unit(const Vec3& a) {
-  const double n = norm(a);
-  return {a[0] / n, a[1] / n, a[2] / n};
-}
 
 constexpr std::array<const char*, kNumColors> kCubeRgba = {"0.85 0.08 0.08 1", "0.08 0.65 0.12 1",
                                                            "0.08 0.2 0.9 1"};
@@ -54,16 +48,6 @@ Vec3 rpy_xz(double alpha, double theta) {
 }
 
 }  // namespace
-
-CameraAxes camera_axes(const CameraModel& cam) {
-  const Vec3 f = unit(sub(cam.look_at_m, cam.pos_m));
-  const Vec3 up_hint = std::abs(f[2]) > 0.999 ? Vec3{1, 0, 0} : Vec3{0, 0, 1};
-  CameraAxes a;
-  a.x = unit(cross(f, up_hint));
-  a.y = cross(a.x, f);
-  a.z = {-f[0], -f[1], -f[2]};
-  return a;
-}
 
 std::string cube_body_name(CubeColor color, int index) {
   return fmt::format("cube_{}_{}", color_name(color), index);

@@ -79,26 +79,6 @@ Result<std::vector<std::uint8_t>> encode_png(const Image& image, int level) {
   return out;
 }
 
-Result<Image> decode_png(std::span<const std::uint8_t> data) {
-  png_image img;
-  std::memset(&img, 0, sizeof img);
-  img.version = PNG_IMAGE_VERSION;
-  if (!png_image_begin_read_from_memory(&img, data.data(), data.size())) {
-    return png_error_value(fmt::format("not a PNG: {}", img.message));
-  }
-  img.format = PNG_FORMAT_RGB;
-  Image out;
-  out.width_px = static_cast<int>(img.width);
-  out.height_px = static_cast<int>(img.height);
-  out.rgb.resize(PNG_IMAGE_SIZE(img));
-  if (!png_image_finish_read(&img, nullptr, out.rgb.data(), 0, nullptr)) {
-    std::string msg = img.message;
-    png_image_free(&img);
-    return png_error_value(fmt::format("PNG decode failed: {}", msg));
-  }
-  return out;
-}
-
 Status save_png(const Image& image, const std::string& path, int level) {
   auto png = encode_png(image, level);
   if (!png) return png.error();

@@ -33,6 +33,11 @@ double focal_px(const CameraModel& c, int height) {
 }  // namespace
 
 Result<RgbImage> decode_png(const std::string& bytes) {
+  return decode_png(std::span<const std::uint8_t>(
+      reinterpret_cast<const std::uint8_t*>(bytes.data()), bytes.size()));
+}
+
+Result<RgbImage> decode_png(std::span<const std::uint8_t> bytes) {
   png_image img;
   std::memset(&img, 0, sizeof img);
   img.version = PNG_IMAGE_VERSION;
@@ -61,15 +66,20 @@ CameraAxes camera_axes(const CameraModel& cam) {
   return a;
 }
 
-bool project(const CameraModel& cam, const Vec3& p, double& col, double& row) {
+bool project(const CameraModel& cam, int width_px, int height_px, const Vec3& p, double& col,
+             double& row) {
   const CameraAxes a = camera_axes(cam);
   const Vec3 d = sub(p, cam.pos_m);
   const double depth = -dot(d, a.z);
   if (!(depth > 1e-9)) return false;
-  const double f = focal_px(cam, cam.height_px);
-  col = 0.5 * cam.width_px + f * dot(d, a.x) / depth;
-  row = 0.5 * cam.height_px - f * dot(d, a.y) / depth;
+  const double f = focal_px(cam, height_px);
+  col = 0.5 * width_px + f * dot(d, a.x) / depth;
+  row = 0.5 * height_px - f * dot(d, a.y) / depth;
   return true;
+}
+
+bool project(const CameraModel& cam, const Vec3& p, double& col, double& row) {
+  return project(cam, cam.width_px, cam.height_px, p, col, row);
 }
 
 bool unproject_to_plane(const CameraModel& cam, double col, double row, double plane_z, Vec3& p) {

@@ -10,6 +10,7 @@
 
 #include "scaratwin/sim/camera.hpp"
 #include "scaratwin/sim/mjcf.hpp"
+#include "scaratwin/vision/vision.hpp"
 
 namespace scaratwin::web {
 namespace {
@@ -134,7 +135,7 @@ std::string scene_message(const RobotModel& robot, const sim::SceneGeometry& geo
         {{"color", color_name(CubeColor(c))}, {"x", t.x_m}, {"y", t.y_m}, {"size", t.size_m}});
   }
   const CameraModel& cam = robot.scene.camera;
-  const sim::CameraAxes axes = sim::camera_axes(cam);
+  const CameraAxes axes = camera_axes(cam);
   json out = {{"type", "scene"},
               {"version", 1},
               {"robot", robot.name},

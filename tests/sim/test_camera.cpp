@@ -9,6 +9,7 @@
 #include "scaratwin/core/units.hpp"
 #include "scaratwin/sim/camera.hpp"
 #include "scaratwin/sim/simulation.hpp"
+#include "scaratwin/vision/vision.hpp"
 
 namespace scaratwin::sim {
 namespace {
@@ -17,9 +18,9 @@ struct Rgb {
   int r, g, b;
 };
 
-Rgb pixel(const Image& img, double u, double v) {
+Rgb pixel(const RgbImage& img, double u, double v) {
   const int x = static_cast<int>(u), y = static_cast<int>(v);
-  const std::uint8_t* p = img.rgb.data() + (static_cast<std::size_t>(y) * img.width_px + x) * 3;
+  const std::uint8_t* p = img.rgb.data() + (static_cast<std::size_t>(y) * img.width + x) * 3;
   return {p[0], p[1], p[2]};
 }
 
@@ -75,8 +76,8 @@ TEST_F(SimCamera, PngDecodesWithTheConfiguredSizeAndCubesWhereProjected) {
     EXPECT_EQ((*png)[1], 'P');
     auto decoded = decode_png(*png);
     ASSERT_TRUE(decoded.ok()) << decoded.error().message;
-    EXPECT_EQ(decoded->width_px, w);
-    EXPECT_EQ(decoded->height_px, h);
+    EXPECT_EQ(decoded->width, w);
+    EXPECT_EQ(decoded->height, h);
     EXPECT_EQ(decoded->rgb, img->rgb);  // lossless
     for (const CubeState& c : sim_->cubes()) {
       const PixelPoint p = project(cm, w, h, c.pos_m);

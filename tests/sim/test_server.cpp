@@ -12,6 +12,7 @@
 #include "scaratwin/sim/server.hpp"
 #include "scaratwin/sim/world.hpp"
 #include "scaratwin/transport/tcp.hpp"
+#include "scaratwin/vision/vision.hpp"
 
 namespace scaratwin::sim {
 namespace {
@@ -94,8 +95,8 @@ TEST_F(SimServerTest, CameraShootSendsAPngOfTheRequestedSize) {
     EXPECT_EQ(r[i].line, "IM," + std::to_string(r[i].payload.size()) + ",");
     auto img = decode_png(r[i].payload);
     ASSERT_TRUE(img.ok()) << img.error().message;
-    EXPECT_EQ(img->width_px, sizes[i].first);
-    EXPECT_EQ(img->height_px, sizes[i].second);
+    EXPECT_EQ(img->width, sizes[i].first);
+    EXPECT_EQ(img->height, sizes[i].second);
   }
   // beyond the offscreen buffer: refused, and the link goes on
   ASSERT_TRUE(client_->send("CS,5000,10,\nPI,\n").ok());

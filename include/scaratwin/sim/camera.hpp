@@ -1,7 +1,7 @@
 // The fixed overhead camera of the virtual scene: offscreen rendering with MuJoCo's renderer
 // on an EGL context of Mesa's surfaceless platform (no display, no GPU needed), PNG encoding
-// with libpng, and the pinhole projection of the camera model (to find where a point of the
-// scene appears in a picture).
+// with libpng, and where a point of the scene appears in a picture (the pinhole model of
+// scaratwin::vision, with the visibility test).
 //
 // Images are 8-bit RGB, row 0 at the top (MuJoCo reads pixels bottom-up; we flip them).
 #pragma once
@@ -62,8 +62,7 @@ class Camera {
 // PNG of an RGB image. `level` is the zlib level 0..9 (1: fast, about half the raw size for
 // these scenes). Errors: bad image size, libpng failure.
 Result<std::vector<std::uint8_t>> encode_png(const Image& image, int level = 1);
-// Decodes a PNG (any colour type) to 8-bit RGB.
-Result<Image> decode_png(std::span<const std::uint8_t> png);
+// (Decoding: scaratwin::decode_png, include/scaratwin/vision/vision.hpp.)
 Status save_png(const Image& image, const std::string& path, int level = 1);
 
 // Where a point p (in B, metres) appears in a width x height picture of the camera model:

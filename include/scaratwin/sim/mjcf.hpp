@@ -47,14 +47,6 @@ Result<std::string> make_mjcf(const RobotModel& model, const MjcfOptions& option
 // A URDF of the arm (base, carriage, two links, wrist, tool frame) with the joint limits.
 Result<std::string> make_urdf(const RobotModel& model);
 
-// Axes of the overhead camera in B, as MuJoCo cameras use them: x to the right of the image,
-// y up in the image, the camera looking along -z. Derived from pos_m and look_at_m (the image
-// "up" is +z of B projected, or +x of B when the camera looks straight down).
-struct CameraAxes {
-  std::array<double, 3> x{}, y{}, z{};
-};
-CameraAxes camera_axes(const CameraModel& camera);
-
 // Body name of a pool cube: "cube_<colour>_<index>".
 std::string cube_body_name(CubeColor color, int index);
 

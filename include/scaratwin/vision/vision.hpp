@@ -10,6 +10,7 @@
 
 #include <array>
 #include <cstdint>
+#include <span>
 #include <string>
 #include <vector>
 
@@ -25,16 +26,24 @@ struct RgbImage {
 };
 
 // Decodes PNG bytes (8-bit RGB or RGBA, or anything libpng can expand to it).
+Result<RgbImage> decode_png(std::span<const std::uint8_t> png_bytes);
 Result<RgbImage> decode_png(const std::string& png_bytes);
 
-// Camera axes in B: x right, y up, z backwards (the view direction is -z).
+// Axes of the overhead camera in B, as MuJoCo cameras use them: x to the right of the image,
+// y up in the image, the camera looking along -z. Derived from pos_m and look_at_m (the image
+// "up" is +z of B projected, or +x of B when the camera looks straight down). The simulator's
+// MJCF places its camera with these.
 struct CameraAxes {
   std::array<double, 3> x{}, y{}, z{};
 };
 CameraAxes camera_axes(const CameraModel& camera);
 
-// Pixel (continuous column, row) of a point in B; false when behind the camera.
+// Pixel (continuous column, row) of a point in B in a picture of the camera's nominal size,
+// or of width_px x height_px (the intrinsics scale with the height: MuJoCo's symmetric
+// frustum of vertical field of view fovy); false when behind the camera.
 bool project(const CameraModel& camera, const std::array<double, 3>& p_B, double& col, double& row);
+bool project(const CameraModel& camera, int width_px, int height_px,
+             const std::array<double, 3>& p_B, double& col, double& row);
 
 // Point of the horizontal plane z = plane_z_m seen at pixel (col, row); false when the ray
 // misses it.
