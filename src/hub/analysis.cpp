@@ -65,6 +65,47 @@ LatencyFigures latency_figures(const std::vector<LatencyRecord>& frames, double 
   return f;
 }
 
+namespace {
+
+JointVector lerp(const JointVector& a, const JointVector& b, double u) {
+  JointVector q;
+  for (int j = 0; j < kNumJoints; ++j) q[j] = a[j] + u * (b[j] - a[j]);
+  return q;
+}
+
+// Sums of a Deviation: one pair of states (A's at time t, B's matched to it) at a time.
+class DeviationSum {
+ public:
+  void add(const RobotModel& model, double t_s, const JointVector& qa, const JointVector& qb) {
+    for (int j = 0; j < kNumJoints; ++j) {
+      const double e = std::abs(qb[j] - qa[j]);
+      sq_[j] += e * e;
+      d_.joint_max[j] = std::max(d_.joint_max[j], e);
+    }
+    const double te = tool_distance(model, qa, qb);
+    tool_sq_ += te * te;
+    d_.tool_max_m = std::max(d_.tool_max_m, te);
+    d_.t_s.push_back(t_s);
+    d_.tool_err_m.push_back(te);
+  }
+  // The RMS figures, and the final deviation between the runs' last states.
+  Deviation finish(const RobotModel& model, const JointVector& a_last, const JointVector& b_last) {
+    const auto n = static_cast<double>(d_.t_s.size());
+    if (n == 0) return d_;
+    for (int j = 0; j < kNumJoints; ++j) d_.joint_rms[j] = std::sqrt(sq_[j] / n);
+    d_.tool_rms_m = std::sqrt(tool_sq_ / n);
+    d_.tool_final_m = tool_distance(model, a_last, b_last);
+    return d_;
+  }
+
+ private:
+  Deviation d_;
+  std::array<double, kNumJoints> sq_{};
+  double tool_sq_ = 0.0;
+};
+
+}  // namespace
+
 JointVector interpolate(const std::vector<JointRecord>& s, double t) {
   SCARATWIN_CHECK(!s.empty(), "interpolate on an empty series");
   if (t <= s.front().t_s) return s.front().q;
@@ -73,10 +114,7 @@ JointVector interpolate(const std::vector<JointRecord>& s, double t) {
                                    [](double x, const JointRecord& r) { return x < r.t_s; });
   const JointRecord& b = *it;
   const JointRecord& a = *(it - 1);
-  const double u = b.t_s > a.t_s ? (t - a.t_s) / (b.t_s - a.t_s) : 0.0;
-  JointVector q;
-  for (int j = 0; j < kNumJoints; ++j) q[j] = a.q[j] + u * (b.q[j] - a.q[j]);
-  return q;
+  return lerp(a.q, b.q, b.t_s > a.t_s ? (t - a.t_s) / (b.t_s - a.t_s) : 0.0);
 }
 
 double tool_distance(const RobotModel& model, const JointVector& a, const JointVector& b) {
@@ -114,12 +152,6 @@ double project_on_segment(const JointVector& qa, const JointVector& qb, const Jo
     den += w * d * d;
   }
   return den > 0.0 ? std::clamp(num / den, 0.0, 1.0) : 0.0;
-}
-
-JointVector lerp(const JointVector& a, const JointVector& b, double u) {
-  JointVector q;
-  for (int j = 0; j < kNumJoints; ++j) q[j] = a[j] + u * (b[j] - a[j]);
-  return q;
 }
 
 }  // namespace
@@ -174,13 +206,10 @@ std::vector<double> plan_progress(const RobotModel& model, const JointTrajectory
 Deviation compare_runs_by_progress(const RobotModel& model, const JointTrajectory& plan,
                                    const std::vector<JointRecord>& a,
                                    const std::vector<JointRecord>& b) {
-  Deviation d;
-  if (a.empty() || b.empty() || plan.samples.empty()) return d;
+  if (a.empty() || b.empty() || plan.samples.empty()) return {};
   const std::vector<double> pa = plan_progress(model, plan, a);
   const std::vector<double> pb = plan_progress(model, plan, b);
-  std::array<double, kNumJoints> sq{};
-  double tool_sq = 0.0;
-  std::size_t n = 0;
+  DeviationSum sum;
   for (std::size_t i = 0; i < a.size(); ++i) {
     // B's state at A's progress: between the last B sample at or before it and the next one
     const auto it = std::upper_bound(pb.begin(), pb.end(), pa[i]);
@@ -194,22 +223,9 @@ Deviation compare_runs_by_progress(const RobotModel& model, const JointTrajector
       const double span = pb[j] - pb[j - 1];
       qb = lerp(b[j - 1].q, b[j].q, span > 0.0 ? (pa[i] - pb[j - 1]) / span : 0.0);
     }
-    for (int j = 0; j < kNumJoints; ++j) {
-      const double e = std::abs(qb[j] - a[i].q[j]);
-      sq[j] += e * e;
-      d.joint_max[j] = std::max(d.joint_max[j], e);
-    }
-    const double te = tool_distance(model, a[i].q, qb);
-    tool_sq += te * te;
-    d.tool_max_m = std::max(d.tool_max_m, te);
-    d.t_s.push_back(a[i].t_s);
-    d.tool_err_m.push_back(te);
-    ++n;
+    sum.add(model, a[i].t_s, a[i].q, qb);
   }
-  for (int j = 0; j < kNumJoints; ++j) d.joint_rms[j] = std::sqrt(sq[j] / static_cast<double>(n));
-  d.tool_rms_m = std::sqrt(tool_sq / static_cast<double>(n));
-  d.tool_final_m = tool_distance(model, a.back().q, b.back().q);
-  return d;
+  return sum.finish(model, a.back().q, b.back().q);
 }
 
 JointTrajectory as_plan(const std::vector<JointRecord>& run) {
@@ -224,44 +240,29 @@ JointTrajectory as_plan(const std::vector<JointRecord>& run) {
 
 Deviation compare_runs(const RobotModel& model, const std::vector<JointRecord>& a,
                        const std::vector<JointRecord>& b, double offset) {
-  Deviation d;
-  if (a.empty() || b.empty()) return d;
-  std::array<double, kNumJoints> sq{};
-  double tool_sq = 0.0;
-  size_t n = 0;
+  if (a.empty() || b.empty()) return {};
+  DeviationSum sum;
   for (const JointRecord& r : a) {
     const double tb = r.t_s + offset;
     if (tb < b.front().t_s || tb > b.back().t_s) continue;
-    const JointVector qb = interpolate(b, tb);
-    for (int j = 0; j < kNumJoints; ++j) {
-      const double e = std::abs(qb[j] - r.q[j]);
-      sq[j] += e * e;
-      d.joint_max[j] = std::max(d.joint_max[j], e);
-    }
-    const double te = tool_distance(model, r.q, qb);
-    tool_sq += te * te;
-    d.tool_max_m = std::max(d.tool_max_m, te);
-    d.t_s.push_back(r.t_s);
-    d.tool_err_m.push_back(te);
-    ++n;
+    sum.add(model, r.t_s, r.q, interpolate(b, tb));
   }
-  if (n == 0) return d;
-  for (int j = 0; j < kNumJoints; ++j) d.joint_rms[j] = std::sqrt(sq[j] / static_cast<double>(n));
-  d.tool_rms_m = std::sqrt(tool_sq / static_cast<double>(n));
-  d.tool_final_m = tool_distance(model, a.back().q, b.back().q);
-  return d;
+  return sum.finish(model, a.back().q, b.back().q);
 }
 
 bool DesyncMonitor::check(const RobotModel& model, const JointVector& expected,
                           const JointVector& observed) {
-  last_m_ = tool_distance(model, expected, observed);
+  return check(tool_distance(model, expected, observed));
+}
+
+bool DesyncMonitor::check(double deviation_m) {
+  last_m_ = deviation_m;
   worst_m_ = std::max(worst_m_, last_m_);
   over_ = last_m_ > threshold_m_ ? over_ + 1 : 0;
-  if (!raised_ && over_ >= persist_) {
-    raised_ = true;
-    return true;
-  }
-  return false;
+  if (over_ != persist_) return false;
+  raised_ = true;
+  ++alarms_;
+  return true;
 }
 
 }  // namespace scaratwin

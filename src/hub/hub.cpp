@@ -226,8 +226,7 @@ void Hub::on_device_state(const pr::DeviceState& st, const tr::RxPacket& rx) {
       const double dev =
           nearest_on_plan(model_, *expected_, ps.q, t_plan - kDesyncSlackS, t_plan + kDesyncSlackS)
               .tool_distance_m;
-      desync_over_ = dev > options_.desync_threshold_m ? desync_over_ + 1 : 0;
-      if (desync_over_ == options_.desync_persist) {
+      if (desync_.check(dev)) {
         ++desync_alarms_;
         if (db_ != nullptr && run_ != 0) {
           (void)db_->add_event(run_, static_cast<double>(rx.steady_us - run_start_us_) / 1e6,
@@ -389,7 +388,7 @@ Result<int> Hub::run_trajectory(const JointTrajectory& traj, double timeout_s) {
     mark = event_count_;
     expected_ = &traj;
     expected_start_us_ = 0;
-    desync_over_ = 0;
+    desync_ = DesyncMonitor(options_.desync_threshold_m, options_.desync_persist);
   }
   const auto clear_expected = [&] {
     std::lock_guard<std::mutex> lock(mu_);

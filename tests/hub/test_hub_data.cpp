@@ -132,6 +132,12 @@ TEST(Analysis, ComparesRunsAndRaisesDesync) {
   EXPECT_FALSE(mon.check(m, q, slipped));  // raised once
   EXPECT_TRUE(mon.raised());
   EXPECT_GT(mon.worst_deviation_m(), 0.003);
+  // back on the path, then off again for a whole streak: a second alarm
+  EXPECT_FALSE(mon.check(m, q, q));
+  EXPECT_FALSE(mon.check(0.004));
+  EXPECT_FALSE(mon.check(0.004));
+  EXPECT_TRUE(mon.check(0.004));
+  EXPECT_EQ(mon.alarms(), 2);
 }
 
 // A plan out and back (shoulder 0 -> 0.6 rad -> 0), and runs of it at other paces.

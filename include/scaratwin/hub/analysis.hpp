@@ -82,13 +82,15 @@ JointTrajectory as_plan(const std::vector<JointRecord>& run);
 JointVector interpolate(const std::vector<JointRecord>& series, double t_s);
 
 // Desync alarm: raised when the tool deviation between the expected and the observed pose
-// stays above `threshold_m` for `persist` consecutive checks.
+// stays above `threshold_m` for `persist` consecutive checks; once per such streak.
 class DesyncMonitor {
  public:
   DesyncMonitor(double threshold_m, int persist) : threshold_m_(threshold_m), persist_(persist) {}
-  // Returns true exactly once, when the alarm is raised.
+  // Returns true when an alarm is raised: on the check that completes a streak.
   bool check(const RobotModel& model, const JointVector& expected, const JointVector& observed);
+  bool check(double deviation_m);
   bool raised() const { return raised_; }
+  int alarms() const { return alarms_; }
   double last_deviation_m() const { return last_m_; }
   double worst_deviation_m() const { return worst_m_; }
 
@@ -97,6 +99,7 @@ class DesyncMonitor {
   int persist_;
   int over_ = 0;
   bool raised_ = false;
+  int alarms_ = 0;
   double last_m_ = 0.0;
   double worst_m_ = 0.0;
 };

@@ -27,6 +27,7 @@
 #include <vector>
 
 #include "scaratwin/core/result.hpp"
+#include "scaratwin/hub/analysis.hpp"
 #include "scaratwin/hub/twin_db.hpp"
 #include "scaratwin/kinematics/motor.hpp"
 #include "scaratwin/protocol/messages.hpp"
@@ -172,8 +173,8 @@ class Hub {
   // expected joints during a trajectory, for the desync alarm
   const JointTrajectory* expected_ = nullptr;
   std::int64_t expected_start_us_ = 0;
-  std::atomic<int> desync_alarms_{0};
-  int desync_over_ = 0;
+  std::atomic<int> desync_alarms_{0};  // over every trajectory run
+  DesyncMonitor desync_{0.0, 1};       // the current trajectory's, reset when it starts
 };
 
 }  // namespace scaratwin
