@@ -347,6 +347,7 @@ Result<DemoOutcome> run_phases(Hub& hub, TwinDb& db, const DemoArgs& a, std::int
     out.in_trays_replay = cubes_in_trays(model, *objs);
     hub.record_metric(metric::kCubesInTray, out.in_trays_replay, "cubes");
     hub.record_metric(metric::kDesyncAlarms, hub.desync_alarms(), "alarms");
+    hub.record_metric(metric::kOffPlanMaxMm, m_to_mm(hub.off_plan_worst_m()), "mm");
     hub.record_metric(metric::kReplayLostFrames, static_cast<double>(after.lost - before.lost),
                       "frames");
     auto pred = db.samples(prediction, SampleSource::kVirtual);
@@ -363,8 +364,10 @@ Result<DemoOutcome> run_phases(Hub& hub, TwinDb& db, const DemoArgs& a, std::int
           "{:.3f} mm\n",
           m_to_mm(d.tool_max_m), m_to_mm(d.tool_rms_m), m_to_mm(d.tool_final_m));
     }
-    fmt::print("    replay: {} of {} cubes in their trays, {} desync alarms\n", out.in_trays_replay,
-               layout.size(), hub.desync_alarms());
+    fmt::print(
+        "    replay: {} of {} cubes in their trays, {} desync alarms (robot at most {:.2f} mm off "
+        "the planned path)\n",
+        out.in_trays_replay, layout.size(), hub.desync_alarms(), m_to_mm(hub.off_plan_worst_m()));
     (void)hub.end_run(out.in_trays_replay == static_cast<int>(layout.size()));
   }
   return out;

@@ -124,9 +124,13 @@ double tool_distance(const RobotModel& model, const JointVector& a, const JointV
 
 namespace {
 
-// Weight of an angle against a length when finding the nearest point of a plan: about the
-// length of the arm's links, so a radian counts like the tool moving 0.1 m.
+// Weight of an arm angle (J2, J3) against a length when finding the nearest point of a plan:
+// about the length of the arm's links, so a radian counts like the tool moving 0.1 m. The
+// wrist (J4) weighs nothing: it turns the tool without moving it, and the robot's servo takes
+// each point's angle at once while the steppers glide between points, so in a fast turn its
+// reported angle trails the plan by up to a point's worth.
 constexpr double kRadianWeightM = 0.1;
+constexpr double kJointWeight[kNumJoints] = {1.0, kRadianWeightM, kRadianWeightM, 0.0};
 // Cost of skipping along the plan when following a run's progress, per metre of path skipped:
 // the descent to a cube and the lift after the grip pass the same poses, and the earlier one
 // is the run's. Small: a run off the path by e keeps lagging its true progress until that is
@@ -134,9 +138,9 @@ constexpr double kRadianWeightM = 0.1;
 constexpr double kSkipCost = 0.1;
 
 double weighted_distance2(const JointVector& a, const JointVector& b) {
-  double s = (a[0] - b[0]) * (a[0] - b[0]);
-  for (int j = 1; j < kNumJoints; ++j) {
-    const double d = (a[j] - b[j]) * kRadianWeightM;
+  double s = 0.0;
+  for (int j = 0; j < kNumJoints; ++j) {
+    const double d = (a[j] - b[j]) * kJointWeight[j];
     s += d * d;
   }
   return s;
@@ -146,7 +150,7 @@ double weighted_distance2(const JointVector& a, const JointVector& b) {
 double project_on_segment(const JointVector& qa, const JointVector& qb, const JointVector& q) {
   double num = 0.0, den = 0.0;
   for (int j = 0; j < kNumJoints; ++j) {
-    const double w = j == 0 ? 1.0 : kRadianWeightM * kRadianWeightM;
+    const double w = kJointWeight[j] * kJointWeight[j];
     const double d = qb[j] - qa[j];
     num += w * (q[j] - qa[j]) * d;
     den += w * d * d;
@@ -195,12 +199,20 @@ std::vector<double> plan_progress(const RobotModel& model, const JointTrajectory
                                   const std::vector<JointRecord>& run, double window_s) {
   std::vector<double> progress;
   progress.reserve(run.size());
-  double at = plan.samples.empty() ? 0.0 : plan.samples.front().t_s;
-  for (const JointRecord& r : run) {
-    at = nearest_on_plan(model, plan, r.q, at, at + window_s, kSkipCost).t_s;
-    progress.push_back(at);
-  }
+  PlanTracker tracker(plan, window_s);
+  for (const JointRecord& r : run) progress.push_back(tracker.follow(model, r.q).t_s);
   return progress;
+}
+
+PlanTracker::PlanTracker(const JointTrajectory& plan, double window_s)
+    : plan_(&plan),
+      window_s_(window_s),
+      at_(plan.samples.empty() ? 0.0 : plan.samples.front().t_s) {}
+
+PlanPoint PlanTracker::follow(const RobotModel& model, const JointVector& q) {
+  const PlanPoint p = nearest_on_plan(model, *plan_, q, at_, at_ + window_s_, kSkipCost);
+  at_ = p.t_s;
+  return p;
 }
 
 Deviation compare_runs_by_progress(const RobotModel& model, const JointTrajectory& plan,

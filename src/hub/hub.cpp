@@ -18,9 +18,10 @@ using std::chrono::milliseconds;
 namespace {
 
 constexpr int kHubError = 80;
-// Plan time either side of the expected one in which the desync check looks for the nearest
-// point of the plan (the robot may run late or early by this much without an alarm).
-constexpr double kDesyncSlackS = 1.5;
+// Plan time ahead of a report's progress along the plan in which the desync check looks for
+// the next report's nearest point of the plan: far more than a robot on its path moves between
+// two reports, short enough not to confuse a descent with the lift that comes back up.
+constexpr double kDesyncWindowS = 1.5;
 
 milliseconds ms(double s) { return milliseconds(static_cast<long long>(std::llround(s * 1000))); }
 
@@ -203,29 +204,14 @@ void Hub::on_device_state(const pr::DeviceState& st, const tr::RxPacket& rx) {
     ++state_count_;
     add_sample(SampleSource::kPhysical, static_cast<double>(rx.steady_us - run_start_us_) / 1e6,
                st.seq, ps.q, ps.grip_deg);
-    // desync alarm against the trajectory being run.
-    if (expected_ != nullptr && expected_start_us_ == 0) {
-      // the plan's clock starts when the robot starts to move: align the first report that
-      // left the start pose with the plan time at which the plan leaves it as far.
-      const JointVector& q0 = expected_->samples.front().q;
-      const double moved = tool_distance(model_, q0, ps.q);
-      if (moved > 2e-4) {
-        double t_plan = 0.0;
-        for (const JointSample& s : expected_->samples) {
-          t_plan = s.t_s;
-          if (tool_distance(model_, q0, s.q) >= moved) break;
-        }
-        expected_start_us_ = rx.steady_us - static_cast<std::int64_t>(t_plan * 1e6);
-      }
-    }
-    if (expected_ != nullptr && expected_start_us_ != 0) {
-      // off the planned path, not off the planned clock: the nearest point of the plan within
-      // the slack of its expected time (a queue underrun or a clock that runs at another rate
-      // shifts the timing without moving the tool off the path; lost steps do move it)
-      const double t_plan = static_cast<double>(rx.steady_us - expected_start_us_) / 1e6;
-      const double dev =
-          nearest_on_plan(model_, *expected_, ps.q, t_plan - kDesyncSlackS, t_plan + kDesyncSlackS)
-              .tool_distance_m;
+    // desync alarm against the trajectory being run: off the planned path, not off the
+    // planned clock. The report's progress along the plan is followed from report to report,
+    // so a queue underrun, a late start or a clock that runs at another rate (an emulator
+    // slowed by a busy host) shifts the timing without moving the tool off the path. The
+    // reports carry the firmware's step counters: a motor that stalls and loses steps shows
+    // only where the true position is measured (the emulator's side channel).
+    if (tracker_) {
+      const double dev = tracker_->follow(model_, ps.q).tool_distance_m;
       if (desync_.check(dev)) {
         ++desync_alarms_;
         if (db_ != nullptr && run_ != 0) {
@@ -374,6 +360,11 @@ Status Hub::stop() {
   return Ok{};
 }
 
+double Hub::off_plan_worst_m() const {
+  std::lock_guard<std::mutex> lock(mu_);
+  return desync_.worst_deviation_m();
+}
+
 Result<int> Hub::run_trajectory(const JointTrajectory& traj, double timeout_s) {
   if (traj.samples.size() < 2) return 0;
   if (Status s = check_limits(model_, traj); !s) {
@@ -386,13 +377,12 @@ Result<int> Hub::run_trajectory(const JointTrajectory& traj, double timeout_s) {
   {
     std::lock_guard<std::mutex> lock(mu_);
     mark = event_count_;
-    expected_ = &traj;
-    expected_start_us_ = 0;
+    tracker_.emplace(traj, kDesyncWindowS);
     desync_ = DesyncMonitor(options_.desync_threshold_m, options_.desync_persist);
   }
-  const auto clear_expected = [&] {
+  const auto clear_tracker = [&] {
     std::lock_guard<std::mutex> lock(mu_);
-    expected_ = nullptr;
+    tracker_.reset();
   };
   // numberTran3: TB, then the points under the device's credit. The robot interpolates
   // between points, so points closer than min_point_dt_s are thinned out (keeping the ends
@@ -412,13 +402,13 @@ Result<int> Hub::run_trajectory(const JointTrajectory& traj, double timeout_s) {
   }
   auto load = statements_->load_trajectory(sent);
   if (!load) {
-    clear_expected();
+    clear_tracker();
     (void)stop();
     return hub_error(fmt::format("robot trajectory load: {}", load.error().message));
   }
   const double wait_s = timeout_s > 0 ? timeout_s : traj.duration_s() + 15.0;
   auto done = wait_event(pr::DeviceEventCode::kTrajectoryDone, wait_s, mark);
-  clear_expected();
+  clear_tracker();
   if (!done) return done.error();
   return load->points;
 }

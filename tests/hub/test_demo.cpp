@@ -94,9 +94,14 @@ TEST(Demo, SortsEveryCubeAndRecordsTheTwin) {
   // no report lost while the plan streamed to the robot, and the replay followed the
   // predicted path (compared by progress along it): no desync alarm, ends where it ended.
   EXPECT_EQ(metric_of(**db, replay, metric::kReplayLostFrames), 0.0);
-  EXPECT_EQ(metric_of(**db, replay, metric::kDesyncAlarms), 0.0);
+  EXPECT_EQ(metric_of(**db, replay, metric::kDesyncAlarms), 0.0)
+      << "the robot went up to " << metric_of(**db, replay, metric::kOffPlanMaxMm)
+      << " mm off the planned path; the demo said:\n"
+      << (*demo)->output_tail(40);
+  EXPECT_LT(metric_of(**db, replay, metric::kOffPlanMaxMm), 1.0);
   EXPECT_LT(metric_of(**db, replay, metric::kReplayFinalMm), 1.0);
   EXPECT_LT(metric_of(**db, replay, metric::kReplayToolRmsMm), 2.0);
+  EXPECT_LT(metric_of(**db, replay, metric::kReplayToolMaxMm), 3.0);
   EXPECT_EQ(by_kind["replay"].ref, by_kind["prediction"].id);
   auto phys = (*db)->samples(replay, SampleSource::kPhysical);
   auto virt = (*db)->samples(replay, SampleSource::kVirtual);

@@ -199,6 +199,56 @@ TEST(Analysis, ComparesRunsOfOnePlanByProgressNotByTime) {
   EXPECT_GT(late.tool_distance_m, 0.01) << "outside the window the pose is off the path";
 }
 
+// The hub's desync alarm follows a run report by report with a PlanTracker: a robot that holds
+// for seconds on an empty queue or whose clock runs slow stays on its path (no alarm); steps
+// lost half-way move it off the path for good (one alarm).
+TEST(Analysis, PlanTrackerAlarmsOnLeavingThePathNotOnRunningLate) {
+  const RobotModel m = paper_robot();
+  const JointTrajectory plan = out_and_back();
+  const auto check_run = [&](const std::vector<JointRecord>& run, double* worst_m) {
+    PlanTracker tracker(plan, 1.5);
+    DesyncMonitor mon(0.003, 5);
+    double last = 0.0;
+    for (const JointRecord& r : run) {
+      const PlanPoint p = tracker.follow(m, r.q);
+      EXPECT_GE(p.t_s, last) << "progress never goes back";
+      last = p.t_s;
+      (void)mon.check(p.tool_distance_m);
+    }
+    EXPECT_NEAR(tracker.progress_s(), 2.0, 1e-9);
+    *worst_m = mon.worst_deviation_m();
+    return mon.alarms();
+  };
+  double worst = 0.0;
+  // starts 1 s late, runs at half speed, holds 3 s at the turn: 9 s of a 2 s plan
+  EXPECT_EQ(check_run(run_of(plan, 1.0, 0.5, 1.0, 3.0, 0.0), &worst), 0);
+  EXPECT_LT(worst, 1e-6);
+  // the same run with 3 mm lost in Z from the turn on (after 1 s of plan time)
+  auto slipped = run_of(plan, 1.0, 0.5, 1.0, 3.0, 0.0);
+  for (std::size_t i = slipped.size() / 2; i < slipped.size(); ++i) slipped[i].q[0] += 0.004;
+  EXPECT_EQ(check_run(slipped, &worst), 1);
+  EXPECT_NEAR(worst, 0.004, 1e-4);
+}
+
+// The robot's wrist is a servo that takes each point's angle when the point starts, while the
+// steppers move smoothly between points: in a fast turn the reported wrist trails the plan by
+// up to a point's angle. The tool's position does not depend on it and neither may its
+// distance from the path.
+TEST(Analysis, PlanTrackerIgnoresTheWristStepsOfAFastTurn) {
+  const RobotModel m = paper_robot();
+  const JointTrajectory plan = quintic({0.09, -0.3, 1.9, 0.0}, {0.09, -1.5, 1.4, 1.6}, 1.2, 60);
+  PlanTracker tracker(plan, 1.5);
+  DesyncMonitor mon(0.003, 5);
+  for (double t = 0.0; t <= 1.3; t += 0.01) {
+    JointVector q = sample_at(plan, t);
+    q[3] = sample_at(plan, std::floor(t / 0.02) * 0.02)[3];  // the servo at the point's angle
+    (void)mon.check(tracker.follow(m, q).tool_distance_m);
+  }
+  EXPECT_EQ(mon.alarms(), 0);
+  EXPECT_LT(mon.worst_deviation_m(), 1e-4);
+  EXPECT_NEAR(tracker.progress_s(), 1.2, 1e-9);
+}
+
 TEST(Report, WritesPlotsAndThePapersFigures) {
   const fs::path dir = temp_dir("report");
   auto db = TwinDb::open(dir / "twin.db");

@@ -49,8 +49,9 @@ Deviation compare_runs(const RobotModel& model, const std::vector<JointRecord>& 
                        const std::vector<JointRecord>& b, double b_time_offset_s = 0.0);
 
 // Where along a plan a joint state lies: the plan time of the nearest point of the plan's
-// polyline (joints linear between samples; angles weighted 0.1 m/rad against d1 in m) among
-// plan times [from_s, to_s], and the tool distance from the state to that point. With
+// polyline (joints linear between samples; d1 in m, J2 and J3 weighted 0.1 m/rad, the wrist
+// not at all as it does not move the tool) among plan times [from_s, to_s], and the tool
+// distance from the state to that point. With
 // `skip_cost` > 0 a later point must be nearer by that fraction of the path length between
 // the point at from_s and it: of two equally near points (a path that comes back the way it
 // went) the earlier wins, and a pause in the plan costs nothing to skip.
@@ -66,6 +67,22 @@ PlanPoint nearest_on_plan(const RobotModel& model, const JointTrajectory& plan,
 // plan time ahead of the previous sample's progress, the path skipped costing 10 % of its length.
 std::vector<double> plan_progress(const RobotModel& model, const JointTrajectory& plan,
                                   const std::vector<JointRecord>& run, double window_s = 2.0);
+
+// plan_progress one joint state at a time, for a run in progress: follow() returns the
+// state's progress along the plan and its tool distance from the plan there. Knows no clock:
+// a robot that starts late, holds on an empty queue or runs on a slower clock stays on its
+// path; only leaving the path counts.
+class PlanTracker {
+ public:
+  explicit PlanTracker(const JointTrajectory& plan, double window_s = 2.0);
+  PlanPoint follow(const RobotModel& model, const JointVector& q);
+  double progress_s() const { return at_; }
+
+ private:
+  const JointTrajectory* plan_;
+  double window_s_;
+  double at_;
+};
 
 // Deviation of run B from run A where both ran `plan`, compared at equal progress along the
 // plan instead of at equal time: a later start, a pause or a clock running at another rate

@@ -114,6 +114,9 @@ class Hub {
   Status stop();
   // Desync alarms raised during trajectories since connect.
   int desync_alarms() const { return desync_alarms_.load(); }
+  // Farthest the robot's reported tool was from the planned path during the last (or the
+  // current) trajectory: what the desync alarm compares with its threshold.
+  double off_plan_worst_m() const;
 
   // --- virtual robot ----------------------------------------------------------------------
   Status sim_mode(protocol::SimMode mode);
@@ -170,9 +173,8 @@ class Hub {
   MirrorCounters mirror_counters_;
   double latency_sum_ms_ = 0.0;
   std::optional<std::uint16_t> last_seq_;
-  // expected joints during a trajectory, for the desync alarm
-  const JointTrajectory* expected_ = nullptr;
-  std::int64_t expected_start_us_ = 0;
+  // progress along the trajectory being run, for the desync alarm
+  std::optional<PlanTracker> tracker_;
   std::atomic<int> desync_alarms_{0};  // over every trajectory run
   DesyncMonitor desync_{0.0, 1};       // the current trajectory's, reset when it starts
 };
