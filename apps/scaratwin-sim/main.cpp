@@ -150,6 +150,9 @@ int main(int argc, char** argv) {
   serve.on_joint_frame = [&link_monitor](const sim::JointFrame& f) {
     link_monitor.on_joint_frame(f.seq, f.t_us, f.q, f.applied_us);
   };
+  serve.on_twin_phase = [&link_monitor](const std::string& phase) {
+    link_monitor.set_twin_mode(phase);
+  };
   auto server = sim::SimServer::create(**world, serve);
   if (!server) return fail(server.error().message, 1);
   // the browser UI: a busy port or a missing page is reported, the simulator runs on

@@ -190,6 +190,7 @@ Result<DemoOutcome> run_phases(Hub& hub, TwinDb& db, const DemoArgs& a, std::int
   {
     auto run = hub.begin_run("home", "homing", demo);
     if (!run) return run.error();
+    if (Status s = hub.set_twin_phase(protocol::TwinPhase::kMirror); !s) return s.error();
     hub.set_mirror(true);
     Ticker t(hub, "home");
     Status s = hub.home();
@@ -248,6 +249,7 @@ Result<DemoOutcome> run_phases(Hub& hub, TwinDb& db, const DemoArgs& a, std::int
   {
     auto run = hub.begin_run("control", "to a spawned cube", demo);
     if (!run) return run.error();
+    if (Status s = hub.set_twin_phase(protocol::TwinPhase::kControl); !s) return s.error();
     Ticker t(hub, "control");
     if (Status s = hub.reset_scene(); !s) return s.error();
     auto id = hub.spawn_cube(CubeColor::kRed, 0.20, 0.05);
@@ -283,6 +285,7 @@ Result<DemoOutcome> run_phases(Hub& hub, TwinDb& db, const DemoArgs& a, std::int
   {
     auto run = hub.begin_run("prediction", "colour sorting in the simulator", demo);
     if (!run) return run.error();
+    if (Status s = hub.set_twin_phase(protocol::TwinPhase::kPrediction); !s) return s.error();
     prediction = *run;
     Ticker t(hub, "predict");
     hub.set_mirror(false);

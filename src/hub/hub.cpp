@@ -437,6 +437,13 @@ Status Hub::place_virtual(const JointVector& q) {
   return sim_mode(pr::SimMode::kSimulate);
 }
 
+Status Hub::set_twin_phase(pr::TwinPhase phase) {
+  auto r =
+      sim_reply<pr::Ack>("twin phase", sim_->request(pr::SetTwinPhase{phase}, milliseconds(2000)));
+  if (!r) return r.error();
+  return Ok{};
+}
+
 Status Hub::sim_mode(pr::SimMode mode) {
   auto r = sim_reply<pr::Ack>("mode", sim_->request(pr::SetMode{mode}, milliseconds(2000)));
   if (!r) return r.error();

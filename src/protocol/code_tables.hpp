@@ -48,6 +48,7 @@ const CodeSpec kTcpHubToSimCodes[] = {
     make_code('O', 'P', 0, "i"),       // [id]
     make_code('Q', 'S', 0, ""),        //
     make_code('S', 'P', 0, ""),        //
+    make_code('T', 'W', 1, "t"),       // phase
 };
 
 const CodeSpec kTcpSimToHubCodes[] = {

@@ -226,6 +226,13 @@ Decoded<TcpToSim> to_message(const Packet& p, TcpToSim*) {
       if (!parse_mode(p, 0, &m.mode)) return bad_value(p, 0, "mirror, simulate");
       return make<M>(m);
     }
+    case code_id('T', 'W'): {
+      for (TwinPhase t :
+           {TwinPhase::kNone, TwinPhase::kMirror, TwinPhase::kControl, TwinPhase::kPrediction}) {
+        if (p.text_equals(0, phase_name(t))) return make<M>(SetTwinPhase{t});
+      }
+      return bad_value(p, 0, "none, mirror, control, prediction");
+    }
     case code_id('G', 'R'):
       in_range(p, 0, 0, 1, &error);
       return checked<M>(error, Grasp{p.i32(0) == 1});

@@ -188,6 +188,10 @@ void put(Writer& w, const SetMode& m) {
   w.begin('M', 'D');
   w.text(mode_name(m.mode), "mode");
 }
+void put(Writer& w, const SetTwinPhase& m) {
+  w.begin('T', 'W');
+  w.text(phase_name(m.phase), "phase");
+}
 void put(Writer& w, const Grasp& m) {
   w.begin('G', 'R');
   w.i32(m.close ? 1 : 0);
@@ -297,6 +301,20 @@ Result<std::string> encode_any(const Direction& message) {
 }  // namespace
 
 const char* mode_name(SimMode mode) { return mode == SimMode::kMirror ? "mirror" : "simulate"; }
+
+const char* phase_name(TwinPhase phase) {
+  switch (phase) {
+    case TwinPhase::kMirror:
+      return "mirror";
+    case TwinPhase::kControl:
+      return "control";
+    case TwinPhase::kPrediction:
+      return "prediction";
+    case TwinPhase::kNone:
+      break;
+  }
+  return "none";
+}
 
 Result<std::string> encode(const SerialToDevice& m) { return encode_any(m); }
 Result<std::string> encode(const SerialFromDevice& m) { return encode_any(m); }

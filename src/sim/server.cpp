@@ -108,6 +108,13 @@ struct SimServer::Impl {
     });
     put(out, proto::Ack{"MD", std::nullopt});
   }
+  void on(std::string& out, const proto::SetTwinPhase& m) {
+    if (options.on_twin_phase) {
+      options.on_twin_phase(m.phase == proto::TwinPhase::kNone ? std::string()
+                                                               : proto::phase_name(m.phase));
+    }
+    put(out, proto::Ack{"TW", std::nullopt});
+  }
   void on(std::string& out, const proto::Grasp& m) {
     const GripperStateValue g = world.with_simulation([&](Simulation& s) {
       if (s.stream_open()) {

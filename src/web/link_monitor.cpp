@@ -33,6 +33,7 @@ void LinkMonitor::set_connected(bool connected) {
   std::lock_guard lock(mutex_);
   status_.connected = connected;
   have_seq_ = false;
+  if (!connected) status_.twin_mode.clear();  // the hub that said it has left
 }
 
 void LinkMonitor::set_twin_mode(std::string mode) {

@@ -78,6 +78,8 @@ inline std::vector<TcpToSim> tcp_to_sim_samples() {
       QueryObjects{3},
       QueryState{},
       Stop{},
+      SetTwinPhase{TwinPhase::kControl},
+      SetTwinPhase{TwinPhase::kNone},
   };
 }
 

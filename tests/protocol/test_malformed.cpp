@@ -57,6 +57,8 @@ TEST(ProtocolMalformed, TcpToSim) {
       {"reply code sent to the simulator", "JA,1,2,\n", core::kErrUnknownCode},
       {"serial framing on TCP", "RS=\n", core::kErrBadCharacter},
       {"unknown mode", "MD,fly,\n", core::kErrBadValue},
+      {"unknown twin phase", "TW,replay,\n", core::kErrBadValue},
+      {"twin phase without its field", "TW,\n", core::kErrWrongFieldCount},
       {"unknown colour", "SC,purple,0,0,\n", core::kErrBadValue},
       {"grasp not 0 or 1", "GR,2,\n", core::kErrBadValue},
       {"space in field", "GR, 1,\n", core::kErrBadCharacter},

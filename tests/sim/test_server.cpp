@@ -215,5 +215,27 @@ TEST(SimServerMax, TargetStreamRunsInLockstepAsFastAsPossible) {
   EXPECT_EQ((*server)->handle_line("SP,"), "AK,SP,\n");
 }
 
+// TW: the hub says which of the twin's modes it runs; the server hands it on (to the UI) as
+// a name, "" for none, and refuses a phase it does not know without handing anything on.
+TEST(SimServerPhase, HandsTheTwinPhaseOn) {
+  auto m = load_robot_config(SCARATWIN_CONFIG_FILE);
+  ASSERT_TRUE(m.ok());
+  WorldOptions wo;
+  wo.camera = false;
+  auto world = World::create(*m, {}, wo);
+  ASSERT_TRUE(world.ok());
+  std::vector<std::string> phases;
+  ServerOptions o;
+  o.port = 0;
+  o.on_twin_phase = [&phases](const std::string& p) { phases.push_back(p); };
+  auto server = SimServer::create(**world, o);
+  ASSERT_TRUE(server.ok());
+  EXPECT_EQ((*server)->handle_line("TW,control,"), "AK,TW,\n");
+  EXPECT_EQ((*server)->handle_line("TW,prediction,"), "AK,TW,\n");
+  EXPECT_EQ((*server)->handle_line("TW,replay,"), "ER,11,0,\n");
+  EXPECT_EQ((*server)->handle_line("TW,none,"), "AK,TW,\n");
+  EXPECT_EQ(phases, (std::vector<std::string>{"control", "prediction", ""}));
+}
+
 }  // namespace
 }  // namespace scaratwin::sim

@@ -237,6 +237,11 @@ TEST(LinkMonitor, CountsGapsAsLostFramesAndMeasuresLatency) {
   s = m.status(t0 + 10'000'000);
   EXPECT_EQ(s.frame_rate_hz, 0.0);
   EXPECT_EQ(s.latency_mean_s, 0.0);
+  // the mode a hub announced goes when that hub leaves
+  m.set_twin_mode("control");
+  EXPECT_EQ(m.status(t0).twin_mode, "control");
+  m.set_connected(false);
+  EXPECT_EQ(m.status(t0).twin_mode, "");
 }
 
 }  // namespace

@@ -190,6 +190,15 @@ try {
   check('link status, frames and latency shown', link.connected && link.frames >= 10 && link.latency_ms !== undefined &&
     (await page.locator('#link-state').textContent()) === 'connected', JSON.stringify(link));
   check('mirror mode shown', (await page.locator('#mode .on').textContent()) === 'Mirror');
+  // the hub says which of the twin's modes it runs (TW); none: derived again
+  hub.send('TW,control,');
+  await page.waitForFunction(() => document.querySelector('#mode .on')?.textContent === 'Control', null, { timeout: 5000 })
+    .catch(() => {});
+  check('the mode the hub announces is shown', (await page.locator('#mode .on').textContent()) === 'Control');
+  hub.send('TW,none,');
+  await page.waitForFunction(() => document.querySelector('#mode .on')?.textContent === 'Mirror', null, { timeout: 5000 })
+    .catch(() => {});
+  check('without an announced mode the simulator\'s is shown', (await page.locator('#mode .on').textContent()) === 'Mirror');
 
   // an out-of-limit joint is highlighted
   hub.joints(80, 130, -45, 20);

@@ -120,6 +120,8 @@ class Hub {
 
   // --- virtual robot ----------------------------------------------------------------------
   Status sim_mode(protocol::SimMode mode);
+  // Tells the simulator (and so its browser UI) which of the twin's modes the hub is running.
+  Status set_twin_phase(protocol::TwinPhase phase);
   // Puts the virtual robot at `q` at once (kinematically, through mirror mode) and leaves the
   // simulator in simulate mode.
   Status place_virtual(const JointVector& q);

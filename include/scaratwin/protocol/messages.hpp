@@ -195,6 +195,15 @@ struct SetMode {
 
   friend bool operator==(const SetMode&, const SetMode&) = default;
 };
+// The paper's three operating modes of the twin, as the hub runs them; none: the hub says
+// nothing (the UI derives what it shows from the simulator's mode).
+enum class TwinPhase { kNone, kMirror, kControl, kPrediction };
+// TW: what the twin is doing, for the simulator's browser UI.
+struct SetTwinPhase {
+  TwinPhase phase = TwinPhase::kNone;
+
+  friend bool operator==(const SetTwinPhase&, const SetTwinPhase&) = default;
+};
 // GR on TCP: grasp (true) or release (false).
 struct Grasp {
   bool close = false;
@@ -286,10 +295,11 @@ using SerialToDevice =
                  SetGripper, Jog, Stop, Config, RealtimeCommand>;
 using SerialFromDevice = std::variant<PeerHello, DeviceState, Ack, ErrorReply, DeviceEvent>;
 using TcpToSim = std::variant<Hello, Ping, JointData, JointTargets, SetMode, Grasp, CameraShoot,
-                              SpawnCube, ResetScene, QueryObjects, QueryState, Stop>;
+                              SpawnCube, ResetScene, QueryObjects, QueryState, Stop, SetTwinPhase>;
 using TcpFromSim = std::variant<PeerHello, JointApplied, GripperState, Image, ObjectPose, SimState,
                                 JointWarning, Ack, ErrorReply>;
 
-const char* mode_name(SimMode mode);  // "mirror", "simulate"
+const char* mode_name(SimMode mode);      // "mirror", "simulate"
+const char* phase_name(TwinPhase phase);  // "none", "mirror", "control", "prediction"
 
 }  // namespace scaratwin::protocol

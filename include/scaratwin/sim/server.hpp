@@ -47,6 +47,9 @@ struct ServerOptions {
   std::string save_images_dir;  // if set, every shot is also saved there as shot_<n>.png
   // Called on the io thread after every joint frame the simulation accepted (may be empty).
   std::function<void(const JointFrame&)> on_joint_frame;
+  // Called on the io thread when the hub says what the twin is doing (TW): "mirror",
+  // "control", "prediction", or "" for none (may be empty).
+  std::function<void(const std::string&)> on_twin_phase;
 };
 
 struct ServerCounters {

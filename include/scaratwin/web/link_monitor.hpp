@@ -44,7 +44,8 @@ class LinkMonitor {
   // machine, full width).
   void on_joint_frame(std::uint16_t seq, std::uint32_t t_us, const JointVector& q,
                       std::int64_t applied_us);
-  // A hub attached (true) or left (false). A new connection restarts the sequence tracking.
+  // A hub attached (true) or left (false). A new connection restarts the sequence tracking;
+  // a hub that leaves takes the twin mode it set with it.
   void set_connected(bool connected);
   // What the hub says the twin is doing ("mirror", "control", "prediction"), or "" to let
   // the UI derive it from the simulator mode.
