@@ -263,6 +263,10 @@ std::string Emulator::command(const std::string& line, int client) {
          "': use query, rate, mark, press, release, cut, lose, corrupt";
 }
 
+namespace {
+constexpr double kBootS = 0.05;  // emulated time by which the firmware has set up its pins
+}  // namespace
+
 Status Emulator::run(const volatile bool& stop) {
   const std::uint64_t chunk = avr_->frequency() / 5000;  // 200 us of emulated time
   const std::uint64_t wall0 = clock_us(CLOCK_MONOTONIC);
@@ -274,6 +278,12 @@ Status Emulator::run(const volatile bool& stop) {
     }
     const double now_s = avr_->sim_seconds();
     if (options_.duration_s > 0 && now_s >= options_.duration_s) break;
+    if (now_s < kBootS) {
+      // the firmware's pin set-up (pull-ups) overrides a level driven before it: a switch
+      // closed at power-up holds its line low, so drive the switches again until it booted
+      endstops_driven_ = 0xff;
+      update_endstops();
+    }
     while (scenario_next_ < scenario_.size() && scenario_[scenario_next_].t_s <= now_s) {
       const std::string reply = command(scenario_[scenario_next_].command, -1);
       if (reply.rfind("ERR", 0) == 0) std::fprintf(stderr, "scenario: %s\n", reply.c_str());
