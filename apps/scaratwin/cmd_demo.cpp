@@ -14,6 +14,7 @@
 #include <chrono>
 #include <csignal>
 #include <cstdio>
+#include <cstdlib>
 #include <cstring>
 #include <optional>
 #include <random>
@@ -372,6 +373,27 @@ Result<DemoOutcome> run_phases(Hub& hub, TwinDb& db, const DemoArgs& a, std::int
         "the planned path)\n",
         out.in_trays_replay, layout.size(), hub.desync_alarms(), m_to_mm(hub.off_plan_worst_m()));
     (void)hub.end_run(out.in_trays_replay == static_cast<int>(layout.size()));
+  }
+  // homing again: the robot has no encoders, but its switches show the steps its motors lost
+  {
+    auto run = hub.begin_run("rehome", "homing again: steps lost during the demo", demo);
+    if (!run) return run.error();
+    if (Status s = hub.set_twin_phase(protocol::TwinPhase::kMirror); !s) return s.error();
+    Ticker t(hub, "rehome");
+    Status s = hub.home();
+    const HomingCheck hc = hub.last_homing();
+    if (s && hc.measured) {
+      const int lost = std::abs(hc.offset_steps[0]) + std::abs(hc.offset_steps[1]) +
+                       std::abs(hc.offset_steps[2]);
+      hub.record_metric(metric::kLostSteps, lost, "steps");
+      fmt::print(
+          "    homing again: the switches found the counts off by Z {}, J2 {}, J3 {} steps "
+          "(tool {:.2f} mm), {} desync alarms in all\n",
+          hc.offset_steps[0], hc.offset_steps[1], hc.offset_steps[2], m_to_mm(hc.tool_m),
+          hub.desync_alarms());
+    }
+    (void)hub.end_run(s.ok() && hc.measured);
+    if (!s) return s.error();
   }
   return out;
 }

@@ -34,6 +34,7 @@ enum Event : uint8_t {
   kEvHeldEv = 7,
   kEvResumed = 8,
   kEvHomingFailed = 9,
+  kEvHomingOffsetZ = 10,  // 11 J2, 12 J3: re-homing found the count this many steps off
 };
 
 // ST flag bits (the endstop bits 32/64/128 are added by report.cpp)
@@ -50,6 +51,7 @@ char g_line[kLineMax];
 core::Decoder g_decoder(core::kSerialHostToDevice, g_line, kLineMax);
 
 bool g_homed = false;
+bool g_rehoming = false;  // HM while homed: report the offsets the switches show
 bool g_halted = false;
 volatile bool g_rt_stop = false;    // set by '!' in the receive interrupt
 volatile bool g_rt_resume = false;  // set by '~'
@@ -263,6 +265,7 @@ void handle_packet(const core::Packet& p) {
       if (g_traj.active || homing_active() || jog_active())
         return reply_er(core::kErrBusy, false, 0);
       g_halted = false;
+      g_rehoming = g_homed;  // the switches will tell how far the counts drifted
       g_homed = false;
       homing_start(g_settings);
       return reply_ak('H', 'M', false, 0);
@@ -349,6 +352,10 @@ void handle_stepper_events() {
   HomingResult h = homing_update(g_settings, ev, hit, &failed_axis);
   if (h == kHomingDone) {
     g_homed = true;
+    if (g_rehoming) {
+      for (uint8_t i = 0; i < kNumAxes; ++i)
+        send_ev((uint8_t)(kEvHomingOffsetZ + i), true, homing_offset(i));
+    }
     send_ev(kEvHomed, false, 0);
   } else if (h == kHomingFailed) {
     g_halted = true;

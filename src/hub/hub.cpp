@@ -1,5 +1,6 @@
 #include "scaratwin/hub/hub.hpp"
 
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <thread>
@@ -301,11 +302,16 @@ Status Hub::check(const char* what, Result<tr::RobotChannel::Reply> r) {
 
 Result<pr::DeviceEvent> Hub::wait_event(pr::DeviceEventCode code, double timeout_s,
                                         std::uint64_t after) {
+  return wait_event({code}, timeout_s, after);
+}
+
+Result<pr::DeviceEvent> Hub::wait_event(std::initializer_list<pr::DeviceEventCode> codes,
+                                        double timeout_s, std::uint64_t after) {
   std::unique_lock<std::mutex> lock(mu_);
   std::optional<pr::DeviceEvent> found;
   const auto pred = [&] {
     for (const auto& [n, ev] : events_) {
-      if (n > after && ev.event == code) {
+      if (n > after && std::find(codes.begin(), codes.end(), ev.event) != codes.end()) {
         found = ev;
         return true;
       }
@@ -314,7 +320,7 @@ Result<pr::DeviceEvent> Hub::wait_event(pr::DeviceEventCode code, double timeout
   };
   if (!cv_.wait_for(lock, ms(timeout_s), pred)) {
     return hub_error(fmt::format("robot: event {} did not come within {:.0f} s",
-                                 static_cast<int>(code), timeout_s));
+                                 static_cast<int>(*codes.begin()), timeout_s));
   }
   return *found;
 }
@@ -339,9 +345,55 @@ Status Hub::home(double timeout_s) {
     mark = event_count_;
   }
   if (Status s = check("home", robot_->request(pr::Home{}, milliseconds(1000))); !s) return s;
-  auto ev = wait_event(pr::DeviceEventCode::kHomed, timeout_s, mark);
+  auto ev = wait_event({pr::DeviceEventCode::kHomed, pr::DeviceEventCode::kHomingFailed}, timeout_s,
+                       mark);
   if (!ev) return ev.error();
+  if (ev->event == pr::DeviceEventCode::kHomingFailed) {
+    static constexpr const char* kAxis[] = {"Z", "J2", "J3"};
+    const int axis = ev->value.value_or(-1);
+    return hub_error(fmt::format("homing failed: the {} endstop was not found (switch or cable)",
+                                 axis >= 0 && axis < 3 ? kAxis[axis] : "?"));
+  }
+  // the offsets come just before EV 1 when the robot was homed before
+  std::lock_guard<std::mutex> lock(mu_);
+  HomingCheck c;
+  for (const auto& [n, e] : events_) {
+    const int k = static_cast<int>(e.event) - static_cast<int>(pr::DeviceEventCode::kHomingOffsetZ);
+    if (n > mark && k >= 0 && k < 3) {
+      c.measured = true;
+      c.offset_steps[static_cast<std::size_t>(k)] = e.value.value_or(0);
+    }
+  }
+  if (c.measured) {
+    // at the home pose: where the counts put the tool, and where it really was
+    const std::array<double, 3> counts = {static_cast<double>(physical_.raw.steps[0]),
+                                          static_cast<double>(physical_.raw.steps[1]),
+                                          static_cast<double>(physical_.raw.steps[2])};
+    std::array<double, 3> truth = counts;
+    for (std::size_t i = 0; i < 3; ++i) truth[i] -= c.offset_steps[i];
+    const double wrist = rad_to_deg(physical_.raw.wrist_rad);
+    c.tool_m = tool_distance(model_, motors_to_joints(model_, counts, wrist),
+                             motors_to_joints(model_, truth, wrist));
+    const std::string what = fmt::format(
+        "homing again: counts off the switches by Z {}, J2 {}, J3 {} steps (tool "
+        "{:.2f} mm)",
+        c.offset_steps[0], c.offset_steps[1], c.offset_steps[2], m_to_mm(c.tool_m));
+    const double t_s = static_cast<double>(tr::steady_now_us() - run_start_us_) / 1e6;
+    if (db_ != nullptr && run_ != 0) (void)db_->add_event(run_, t_s, "homing", what);
+    if (c.tool_m > options_.desync_threshold_m) {
+      ++desync_alarms_;
+      if (db_ != nullptr && run_ != 0) {
+        (void)db_->add_event(run_, t_s, "desync", "lost steps: " + what);
+      }
+    }
+  }
+  last_homing_ = c;
   return Ok{};
+}
+
+HomingCheck Hub::last_homing() const {
+  std::lock_guard<std::mutex> lock(mu_);
+  return last_homing_;
 }
 
 Status Hub::set_gripper(bool closed) {

@@ -196,7 +196,7 @@ Decoded<SerialFromDevice> to_message(const Packet& p, SerialFromDevice*) {
     case code_id('E', 'R'):
       return ack_or_error<M>(p);
     case code_id('E', 'V'):
-      in_range(p, 0, 1, 8, &error);
+      in_range(p, 0, 1, kLastDeviceEvent, &error);
       return checked<M>(error,
                         DeviceEvent{static_cast<DeviceEventCode>(p.i32(0)), optional_field(p, 1)});
     default:

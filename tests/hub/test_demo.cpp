@@ -1,6 +1,9 @@
 // End to end, as a user runs it: `scaratwin demo` with the simulator and our firmware in the
 // AVR emulator as separate processes over TCP and a pty; then the database, the report and
 // the CSV it left. And a script with an error: it stops at that line and moves nothing after.
+#include <arpa/inet.h>
+#include <netinet/in.h>
+#include <sys/socket.h>
 #include <unistd.h>
 
 #include <chrono>
@@ -15,6 +18,7 @@
 
 #include "scaratwin/config/robot_config.hpp"
 #include "scaratwin/core/units.hpp"
+#include "scaratwin/hub/hub.hpp"
 #include "scaratwin/hub/process.hpp"
 #include "scaratwin/hub/report.hpp"
 #include "scaratwin/hub/twin_db.hpp"
@@ -67,7 +71,7 @@ TEST(Demo, SortsEveryCubeAndRecordsTheTwin) {
   ASSERT_TRUE(runs);
   std::map<std::string, RunInfo> by_kind;
   for (const RunInfo& r : *runs) by_kind[r.kind] = r;
-  for (const char* kind : {"demo", "home", "mirror", "control", "prediction", "replay"}) {
+  for (const char* kind : {"demo", "home", "mirror", "control", "prediction", "replay", "rehome"}) {
     ASSERT_TRUE(by_kind.count(kind)) << kind;
     EXPECT_EQ(by_kind[kind].status, "ok") << kind;
   }
@@ -108,6 +112,17 @@ TEST(Demo, SortsEveryCubeAndRecordsTheTwin) {
   ASSERT_TRUE(phys && virt);
   EXPECT_GT(phys->size(), 1000u);
   EXPECT_GT(virt->size(), 1000u);
+  // homing again at the end: the switches found no step lost
+  const int64_t rehome = by_kind["rehome"].id;
+  EXPECT_EQ(metric_of(**db, rehome, metric::kLostSteps), 0.0);
+  auto rehome_events = (*db)->events(rehome);
+  ASSERT_TRUE(rehome_events);
+  int checks = 0;
+  for (const auto& [t, e] : *rehome_events) {
+    checks +=
+        e.rfind("homing: homing again: counts off the switches by Z 0, J2 0, J3 0 steps", 0) == 0;
+  }
+  EXPECT_EQ(checks, 1);
   // the camera shot is kept.
   EXPECT_GE(*(*db)->count("images", by_kind["prediction"].id), 1);
 
@@ -171,6 +186,65 @@ TEST(Script, StopsAtTheFailingLineAndMovesNothingAfter) {
   EXPECT_NEAR(last[0], model.home[0], 1e-3);
   EXPECT_NEAR(last[1], model.home[1], deg_to_rad(0.5));
   EXPECT_NEAR(last[2], model.home[2], deg_to_rad(0.5));
+  (*robot)->stop();
+  (*sim)->stop();
+}
+
+// Steps lost by a motor do not show in the robot's counts (it has no encoders); homing again
+// shows them. A fault makes the emulated J2 motor lose 100 steps: the hub's homing check
+// finds exactly those and raises a desync alarm; with nothing lost it finds 0 and raises none.
+TEST(Hub, HomingAgainFindsLostStepsAndRaisesADesyncAlarm) {
+  const fs::path dir = fresh_dir("lost");
+  auto robot = ChildProcess::start(kBin / "scaratwin-robot",
+                                   {"--pty-link", (dir / "robot.pty").string()}, dir / "robot.log");
+  ASSERT_TRUE(robot) << robot.error().message;
+  auto sim = ChildProcess::start(
+      kBin / "scaratwin-sim", {"--port", "0", "--http-port", "0", "--no-camera"}, dir / "sim.log");
+  ASSERT_TRUE(sim) << sim.error().message;
+  auto side = (*robot)->wait_for_line("side channel: ", 60s);
+  ASSERT_TRUE(side);
+  auto listening = (*sim)->wait_for_line("listening on", 60s);
+  ASSERT_TRUE(listening);
+  const size_t paren = listening->find(" (");
+  const size_t colon = listening->rfind(':', paren);
+  const RobotModel model = *load_robot_config(SCARATWIN_CONFIG_FILE);
+  HubOptions opt;
+  opt.serial_device = (dir / "robot.pty").string();
+  opt.sim_port =
+      static_cast<std::uint16_t>(std::stoi(listening->substr(colon + 1, paren - colon - 1)));
+  auto hub = Hub::connect(model, opt, nullptr);
+  ASSERT_TRUE(hub) << hub.error().message;
+  ASSERT_TRUE((*hub)->home());
+  EXPECT_FALSE((*hub)->last_homing().measured) << "nothing to compare with at the first homing";
+  // a move and back, then homing again: nothing lost
+  ASSERT_TRUE((*hub)->jog(protocol::Axis::kJ2, 300.0));
+  ASSERT_TRUE((*hub)->wait_idle(30.0));
+  ASSERT_TRUE((*hub)->home());
+  HomingCheck c = (*hub)->last_homing();
+  EXPECT_TRUE(c.measured);
+  EXPECT_EQ(c.offset_steps, (std::array<std::int32_t, 3>{0, 0, 0}));
+  EXPECT_EQ((*hub)->desync_alarms(), 0);
+  // the J2 motor slips 100 steps during the next move
+  const int side_port = std::stoi(side->substr(side->rfind(':') + 1));
+  const int fd = ::socket(AF_INET, SOCK_STREAM, 0);
+  ASSERT_GE(fd, 0);
+  sockaddr_in addr{};
+  addr.sin_family = AF_INET;
+  addr.sin_port = htons(static_cast<std::uint16_t>(side_port));
+  addr.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
+  ASSERT_EQ(::connect(fd, reinterpret_cast<sockaddr*>(&addr), sizeof addr), 0);
+  const std::string lose = "lose j2 100\n";
+  ASSERT_EQ(::send(fd, lose.data(), lose.size(), MSG_NOSIGNAL), static_cast<ssize_t>(lose.size()));
+  ASSERT_TRUE((*hub)->jog(protocol::Axis::kJ2, 300.0));
+  ASSERT_TRUE((*hub)->wait_idle(30.0));
+  ASSERT_TRUE((*hub)->home());
+  c = (*hub)->last_homing();
+  EXPECT_TRUE(c.measured);
+  EXPECT_EQ(c.offset_steps, (std::array<std::int32_t, 3>{0, 100, 0}));
+  EXPECT_GT(c.tool_m, 0.003);
+  EXPECT_EQ((*hub)->desync_alarms(), 1);
+  ::close(fd);
+  hub->reset();
   (*robot)->stop();
   (*sim)->stop();
 }

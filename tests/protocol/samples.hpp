@@ -56,6 +56,8 @@ inline std::vector<SerialFromDevice> serial_from_device_samples() {
       ErrorReply{core::kErrUnknownCode, std::nullopt},
       DeviceEvent{DeviceEventCode::kHomed, std::nullopt},
       DeviceEvent{DeviceEventCode::kTrajectoryDone, 60},
+      DeviceEvent{DeviceEventCode::kHomingFailed, 1},
+      DeviceEvent{static_cast<DeviceEventCode>(11), -40},
   };
 }
 

@@ -107,6 +107,7 @@ TEST(ProtocolMalformed, SerialFromDevice) {
       {"binary junk", "\x7f\n", core::kErrBadCharacter},
       {"real-time byte from the device", "EV=6=!\n", core::kErrBadCharacter},
       {"unknown event", "EV=99=\n", core::kErrBadValue},
+      {"event after the last one", "EV=13=\n", core::kErrBadValue},
       {"seq above 65535", "ST=70000=1=0=0=0=0=0=0=0=\n", core::kErrBadValue},
       {"text in a number field", "ER=abc=\n", core::kErrBadNumber},
       {"number too long for u32", "ST=1=99999999999=0=0=0=0=0=0=0=\n", core::kErrBadNumber},

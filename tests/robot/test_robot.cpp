@@ -306,6 +306,46 @@ TEST_F(RobotTest, FaultsLostStepsAndACutLinkAreVisible) {
   EXPECT_EQ(robot.request("PI=10=\n", 20.0).value_or(""), "AK=PI=10=") << "link back";
 }
 
+// Homing from a pose where J3 is already past its switch (as after J2 homed from some poses,
+// the belt coupling turning J3 with it): the firmware runs it off the switch, then homes.
+TEST(RobotStart, HomingStartsFromBeyondASwitch) {
+  Robot robot({"--speed", "0", "--start-steps", "24667", "0", "-2600"});  // J3 switch: -1955
+  ASSERT_TRUE(robot.ok()) << robot.error();
+  ASSERT_TRUE(robot.home(60.0)) << "homing failed";
+  const Truth t = robot.truth();
+  EXPECT_EQ(t.i("z"), 24667);
+  EXPECT_EQ(t.i("j2"), 0);
+  EXPECT_EQ(t.i("j3"), 0);
+}
+
+// The robot has no encoders: lost steps do not show in its counts. Homing again does show
+// them: each switch closes where the motor really is, and the firmware reports how far the
+// count was from it (EV 10/11/12 for Z/J2/J3) before EV 1.
+TEST_F(RobotTest, HomingAgainReportsTheStepsTheMotorsLost) {
+  ASSERT_TRUE(robot.home());
+  ASSERT_EQ(robot.side("lose j2 40"), "OK lose j2 40");
+  ASSERT_EQ(robot.request("JG=1=400=\n").value_or(""), "AK=JG=");
+  for (int i = 0; i < 400; ++i) {
+    auto st = robot.query_state();
+    ASSERT_TRUE(st);
+    if (st->j2() == 400 && (st->flags() & 2) == 0) break;
+  }
+  EXPECT_EQ(robot.truth().i("j2"), 360) << "the motor made 360 of 400 steps";
+  ASSERT_EQ(robot.request("HM=\n").value_or(""), "AK=HM=");
+  std::vector<std::string> events;
+  for (;;) {
+    auto l = robot.line(60.0);
+    ASSERT_TRUE(l) << "no EV=1= after homing again";
+    if (l->rfind("EV=", 0) == 0) events.push_back(*l);
+    if (*l == "EV=1=") break;
+  }
+  EXPECT_EQ(events, (std::vector<std::string>{"EV=10=0=", "EV=11=40=", "EV=12=0=", "EV=1="}));
+  // the counts are right again
+  auto st = robot.query_state();
+  ASSERT_TRUE(st);
+  EXPECT_EQ(st->j2(), robot.truth().i("j2"));
+}
+
 // Paced to real time, so that the host reads the reports as a hub would (3 s).
 TEST(RobotPaced, ReportsCarryConsecutiveSequenceNumbersAtTheConfiguredRate) {
   Robot robot({"--speed", "1"});

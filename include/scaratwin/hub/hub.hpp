@@ -15,11 +15,13 @@
 // on the io thread. Times recorded in the database are seconds since the current run began.
 #pragma once
 
+#include <array>
 #include <atomic>
 #include <condition_variable>
 #include <cstdint>
 #include <deque>
 #include <functional>
+#include <initializer_list>
 #include <memory>
 #include <mutex>
 #include <optional>
@@ -62,6 +64,14 @@ struct PhysicalState {
   bool valid = false;
 };
 
+// What homing again found: the robot has no encoders, but each endstop closes where its
+// motor really is, and the firmware reports how far the count was from it.
+struct HomingCheck {
+  bool measured = false;                       // the robot was homed before this homing
+  std::array<std::int32_t, 3> offset_steps{};  // Z, J2, J3: count - true position (lost steps)
+  double tool_m = 0.0;  // how far the tool really was from where its counts put it (home pose)
+};
+
 // Live mirror counters (also shown by the demo's progress line).
 struct MirrorCounters {
   std::uint64_t frames = 0;      // JD frames forwarded
@@ -101,7 +111,11 @@ class Hub {
   PhysicalState physical() const;
   // Waits for a state report newer than now.
   Result<PhysicalState> fresh_physical(double timeout_s);
+  // Homes against the endstops; fails at once if the robot reports that homing failed. When
+  // the robot was homed before, its switches measure the steps lost since (last_homing());
+  // a tool offset beyond the desync threshold raises a desync alarm.
   Status home(double timeout_s = 120.0);
+  HomingCheck last_homing() const;
   // Waits until a state report shows the robot at rest (no jog, no trajectory).
   Status wait_idle(double timeout_s);
   // Loads `trajectory` (its first sample must be the robot's current pose) with credit flow
@@ -150,6 +164,9 @@ class Hub {
                   double grip_deg);
   Result<protocol::DeviceEvent> wait_event(protocol::DeviceEventCode code, double timeout_s,
                                            std::uint64_t after);
+  // The first of `codes` after event number `after`.
+  Result<protocol::DeviceEvent> wait_event(std::initializer_list<protocol::DeviceEventCode> codes,
+                                           double timeout_s, std::uint64_t after);
   Status check(const char* what, Result<transport::RobotChannel::Reply> r);
 
   RobotModel model_;
@@ -179,6 +196,7 @@ class Hub {
   std::optional<PlanTracker> tracker_;
   std::atomic<int> desync_alarms_{0};  // over every trajectory run
   DesyncMonitor desync_{0.0, 1};       // the current trajectory's, reset when it starts
+  HomingCheck last_homing_;
 };
 
 }  // namespace scaratwin

@@ -27,6 +27,7 @@ inline constexpr const char* kReplayFinalMm = "replay_final_tool_error_mm";
 inline constexpr const char* kCubesInTray = "cubes_in_tray";
 inline constexpr const char* kDesyncAlarms = "desync_alarms";
 inline constexpr const char* kOffPlanMaxMm = "replay_off_plan_max_mm";
+inline constexpr const char* kLostSteps = "lost_steps";  // found by homing again, all axes
 }  // namespace metric
 
 // Writes the report of `run` (and of the runs whose parent it is) to `html`.

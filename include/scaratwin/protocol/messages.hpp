@@ -161,7 +161,10 @@ enum class DeviceEventCode : std::int32_t {
   kStopped = 6,
   kHeld = 7,
   kResumed = 8,
+  kHomingFailed = 9,    // value: axis
+  kHomingOffsetZ = 10,  // 11 J2, 12 J3; value: count - switch position when homing again (steps)
 };
+inline constexpr int kLastDeviceEvent = 12;
 // EV: unsolicited device event.
 struct DeviceEvent {
   DeviceEventCode event = DeviceEventCode::kHomed;
