@@ -122,6 +122,14 @@ double tool_distance(const RobotModel& model, const JointVector& a, const JointV
   return std::hypot(pa.x_m - pb.x_m, pa.y_m - pb.y_m, pa.z_m - pb.z_m);
 }
 
+double lost_steps_tool_offset_m(const RobotModel& model, const std::array<double, 3>& counts,
+                                const std::array<std::int32_t, 3>& offset_steps, double wrist_deg) {
+  std::array<double, 3> truth = counts;
+  for (std::size_t i = 0; i < truth.size(); ++i) truth[i] -= offset_steps[i];
+  return tool_distance(model, motors_to_joints(model, counts, wrist_deg),
+                       motors_to_joints(model, truth, wrist_deg));
+}
+
 namespace {
 
 // Weight of an arm angle (J2, J3) against a length when finding the nearest point of a plan:

@@ -7,6 +7,7 @@
 
 #include <fmt/format.h>
 
+#include "hub_internal.hpp"
 #include "scaratwin/core/units.hpp"
 #include "scaratwin/hub/analysis.hpp"
 
@@ -14,19 +15,16 @@ namespace scaratwin {
 
 namespace pr = protocol;
 namespace tr = transport;
+using hub_detail::hub_error;
+using hub_detail::ms;
 using std::chrono::milliseconds;
 
 namespace {
 
-constexpr int kHubError = 80;
 // Plan time ahead of a report's progress along the plan in which the desync check looks for
 // the next report's nearest point of the plan: far more than a robot on its path moves between
 // two reports, short enough not to confuse a descent with the lift that comes back up.
 constexpr double kDesyncWindowS = 1.5;
-
-milliseconds ms(double s) { return milliseconds(static_cast<long long>(std::llround(s * 1000))); }
-
-Error hub_error(std::string message) { return Error{kHubError, std::move(message)}; }
 
 }  // namespace
 
@@ -365,15 +363,12 @@ Status Hub::home(double timeout_s) {
     }
   }
   if (c.measured) {
-    // at the home pose: where the counts put the tool, and where it really was
-    const std::array<double, 3> counts = {static_cast<double>(physical_.raw.steps[0]),
-                                          static_cast<double>(physical_.raw.steps[1]),
-                                          static_cast<double>(physical_.raw.steps[2])};
-    std::array<double, 3> truth = counts;
-    for (std::size_t i = 0; i < 3; ++i) truth[i] -= c.offset_steps[i];
-    const double wrist = rad_to_deg(physical_.raw.wrist_rad);
-    c.tool_m = tool_distance(model_, motors_to_joints(model_, counts, wrist),
-                             motors_to_joints(model_, truth, wrist));
+    // at the home pose, where homing ends
+    c.tool_m = lost_steps_tool_offset_m(
+        model_,
+        {static_cast<double>(physical_.raw.steps[0]), static_cast<double>(physical_.raw.steps[1]),
+         static_cast<double>(physical_.raw.steps[2])},
+        c.offset_steps, rad_to_deg(physical_.raw.wrist_rad));
     const std::string what = fmt::format(
         "homing again: counts off the switches by Z {}, J2 {}, J3 {} steps (tool "
         "{:.2f} mm)",
@@ -463,140 +458,6 @@ Result<int> Hub::run_trajectory(const JointTrajectory& traj, double timeout_s) {
   clear_tracker();
   if (!done) return done.error();
   return load->points;
-}
-
-// --- virtual robot ----------------------------------------------------------------------------
-
-namespace {
-
-template <class T>
-Result<T> sim_reply(const char* what, Result<tr::SimChannel::Reply> r) {
-  if (!r) return hub_error(fmt::format("simulator {}: {}", what, r.error().message));
-  if (const T* v = std::get_if<T>(&r->last())) return *v;
-  return hub_error(fmt::format("simulator {}: unexpected reply", what));
-}
-
-}  // namespace
-
-Status Hub::place_virtual(const JointVector& q) {
-  if (Status s = sim_mode(pr::SimMode::kMirror); !s) return s;
-  pr::JointData jd;
-  jd.t_us = static_cast<std::uint32_t>(tr::steady_now_us());
-  jd.q = q;
-  auto ja =
-      sim_reply<pr::JointApplied>("place the virtual robot", sim_->request(jd, milliseconds(2000)));
-  if (!ja) return ja.error();
-  return sim_mode(pr::SimMode::kSimulate);
-}
-
-Status Hub::set_twin_phase(pr::TwinPhase phase) {
-  auto r =
-      sim_reply<pr::Ack>("twin phase", sim_->request(pr::SetTwinPhase{phase}, milliseconds(2000)));
-  if (!r) return r.error();
-  return Ok{};
-}
-
-Status Hub::sim_mode(pr::SimMode mode) {
-  auto r = sim_reply<pr::Ack>("mode", sim_->request(pr::SetMode{mode}, milliseconds(2000)));
-  if (!r) return r.error();
-  return Ok{};
-}
-
-Result<int> Hub::spawn_cube(CubeColor color, double x_m, double y_m) {
-  auto r = sim_reply<pr::Ack>("spawn",
-                              sim_->request(pr::SpawnCube{color, x_m, y_m}, milliseconds(2000)));
-  if (!r) return r.error();
-  return r->value.value_or(-1);
-}
-
-Status Hub::reset_scene() {
-  auto r = sim_reply<pr::Ack>("reset", sim_->request(pr::ResetScene{}, milliseconds(2000)));
-  if (!r) return r.error();
-  std::lock_guard<std::mutex> lock(mu_);
-  sim_grip_closed_ = false;
-  return Ok{};
-}
-
-Result<std::vector<pr::ObjectPose>> Hub::objects() {
-  auto r = statements_->object_positions();
-  if (!r) return hub_error(fmt::format("simulator objects: {}", r.error().message));
-  return *r;
-}
-
-Result<std::string> Hub::shoot(int width_px, int height_px) {
-  auto r = statements_->take_picture({}, width_px, height_px);
-  if (!r) return hub_error(fmt::format("simulator camera: {}", r.error().message));
-  std::string png(r->begin(), r->end());
-  std::lock_guard<std::mutex> lock(mu_);
-  if (db_ != nullptr && run_ != 0) {
-    (void)db_->add_image(run_, static_cast<double>(tr::steady_now_us() - run_start_us_) / 1e6,
-                         "camera.png", png);
-  }
-  return png;
-}
-
-Result<tr::GripOutcome> Hub::sim_grasp(bool close) {
-  auto r =
-      close ? statements_->grip(tr::Robots::kVirtual) : statements_->release(tr::Robots::kVirtual);
-  if (!r) return hub_error(fmt::format("simulator gripper: {}", r.error().message));
-  std::lock_guard<std::mutex> lock(mu_);
-  sim_grip_closed_ = close;
-  return *r;
-}
-
-Result<pr::SimState> Hub::sim_state() {
-  return sim_reply<pr::SimState>("state", sim_->request(pr::QueryState{}, milliseconds(2000)));
-}
-
-Status Hub::simulate_trajectory(const JointTrajectory& traj, double speed) {
-  if (traj.samples.empty()) return Ok{};
-  if (!(speed > 0.0)) return hub_error(fmt::format("speed {} must be > 0", speed));
-  // The virtual robot starts where the plan starts. A plan made from the physical robot's
-  // pose after the scene was reset (virtual robot at home) would otherwise begin with a jump
-  // that the simulated actuators make in a few tens of ms and the physical robot never makes.
-  if (Status s = place_virtual(traj.samples.front().q); !s) return s;
-  const auto start = std::chrono::steady_clock::now();
-  size_t next_event = 0;
-  const auto record_state = [&]() -> Status {
-    auto st = sim_state();
-    if (!st) return st.error();
-    std::lock_guard<std::mutex> lock(mu_);
-    add_sample(SampleSource::kVirtual,
-               static_cast<double>(tr::steady_now_us() - run_start_us_) / 1e6, st->seq, st->q,
-               st->grip_closed ? model_.motors.gripper_closed_deg : model_.motors.gripper_open_deg);
-    return Ok{};
-  };
-  for (size_t k = 0; k < traj.samples.size(); ++k) {
-    const JointSample& s = traj.samples[k];
-    std::this_thread::sleep_until(
-        start + std::chrono::microseconds(static_cast<long long>(s.t_s / speed * 1e6)));
-    pr::JointTargets tj;
-    tj.seq = static_cast<std::uint16_t>(k);
-    tj.t_us = static_cast<std::uint32_t>(tr::steady_now_us());
-    tj.q = s.q;
-    {
-      std::lock_guard<std::mutex> lock(mu_);
-      add_sample(SampleSource::kPlanned,
-                 static_cast<double>(tr::steady_now_us() - run_start_us_) / 1e6,
-                 static_cast<std::int64_t>(k), s.q, 0.0);
-    }
-    auto ja = sim_reply<pr::JointApplied>("joint targets", sim_->request(tj, milliseconds(2000)));
-    if (!ja) return ja.error();
-    while (next_event < traj.events.size() && traj.events[next_event].t_s <= s.t_s + 1e-9) {
-      const bool close = traj.events[next_event].action == GripperAction::kGrip;
-      auto g = sim_grasp(close);
-      if (!g) return g.error();
-      record_event("sim-gripper", close ? fmt::format("grasp: holding cube {}", g->held_id)
-                                        : std::string("release"));
-      ++next_event;
-    }
-    if (k % 2 == 0 || k + 1 == traj.samples.size()) {
-      if (Status st = record_state(); !st) return st;
-    }
-  }
-  // let the servos settle on the last target.
-  std::this_thread::sleep_for(milliseconds(static_cast<long long>(300 / speed)));
-  return record_state();
 }
 
 tr::LinkCounters Hub::serial_counters() const { return serial_->counters(); }

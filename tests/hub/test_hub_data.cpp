@@ -140,6 +140,22 @@ TEST(Analysis, ComparesRunsAndRaisesDesync) {
   EXPECT_EQ(mon.alarms(), 2);
 }
 
+// What homing again measures, at the tool: nothing lost, nothing off; steps lost on J2 move
+// the tool as the joints the counts give and the joints the motors are at differ; on Z, a lift.
+TEST(Analysis, LostStepsBecomeAToolOffset) {
+  const RobotModel m = paper_robot();
+  const std::array<double, 3> home_counts = {24667, 0, 0};
+  EXPECT_EQ(lost_steps_tool_offset_m(m, home_counts, {0, 0, 0}, 90.0), 0.0);
+  const JointVector counted = motors_to_joints(m, home_counts, 90.0);
+  const JointVector real = motors_to_joints(m, {24667, -100, 0}, 90.0);
+  const double expected = tool_distance(m, counted, real);
+  EXPECT_GT(expected, 0.003) << "100 J2 steps move the tool by more than the alarm threshold";
+  EXPECT_DOUBLE_EQ(lost_steps_tool_offset_m(m, home_counts, {0, 100, 0}, 90.0), expected);
+  EXPECT_NEAR(lost_steps_tool_offset_m(m, home_counts, {-400, 0, 0}, 90.0),
+              400.0 / m.motors.z.steps_per_unit, 1e-12)
+      << "Z: a pure lift";
+}
+
 // A plan out and back (shoulder 0 -> 0.6 rad -> 0), and runs of it at other paces.
 JointTrajectory out_and_back() {
   JointTrajectory plan;

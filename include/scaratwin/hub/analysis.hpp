@@ -3,10 +3,13 @@
 // Pure: no I/O, no clock.
 #pragma once
 
+#include <array>
+#include <cstdint>
 #include <vector>
 
 #include "scaratwin/hub/twin_db.hpp"
 #include "scaratwin/kinematics/kinematics.hpp"
+#include "scaratwin/kinematics/motor.hpp"
 #include "scaratwin/trajectory/trajectory.hpp"
 
 namespace scaratwin {
@@ -123,5 +126,10 @@ class DesyncMonitor {
 
 // Distance between the tool positions of two joint states.
 double tool_distance(const RobotModel& model, const JointVector& a, const JointVector& b);
+
+// How far the tool really is from where the motor counts `counts` (Z, J2, J3) put it when
+// the counts are `offset_steps` ahead of the motors (steps lost; what homing again measures).
+double lost_steps_tool_offset_m(const RobotModel& model, const std::array<double, 3>& counts,
+                                const std::array<std::int32_t, 3>& offset_steps, double wrist_deg);
 
 }  // namespace scaratwin
