@@ -55,6 +55,37 @@ double metric_of(TwinDb& db, int64_t run, const std::string& name) {
   return NAN;
 }
 
+// The emulated robot (its pty linked at dir/robot.pty) and the simulator, started as separate
+// processes and ready; the simulator's port and the robot's side-channel port come from their
+// output. Both stop when the Rig goes.
+struct Rig {
+  std::unique_ptr<ChildProcess> robot, sim;
+  fs::path pty;
+  std::string sim_port;
+  int side_port = 0;
+};
+
+void start_rig(const fs::path& dir, bool camera, Rig* rig) {
+  rig->pty = dir / "robot.pty";
+  auto robot = ChildProcess::start(kBin / "scaratwin-robot", {"--pty-link", rig->pty.string()},
+                                   dir / "robot.log");
+  ASSERT_TRUE(robot) << robot.error().message;
+  rig->robot = std::move(*robot);
+  std::vector<std::string> sim_args = {"--port", "0", "--http-port", "0"};
+  if (!camera) sim_args.emplace_back("--no-camera");
+  auto sim = ChildProcess::start(kBin / "scaratwin-sim", sim_args, dir / "sim.log");
+  ASSERT_TRUE(sim) << sim.error().message;
+  rig->sim = std::move(*sim);
+  auto side = rig->robot->wait_for_line("side channel: ", 60s);  // after its pty line
+  ASSERT_TRUE(side) << side.error().message;
+  rig->side_port = std::stoi(side->substr(side->rfind(':') + 1));
+  auto listening = rig->sim->wait_for_line("listening on", 60s);
+  ASSERT_TRUE(listening) << listening.error().message;
+  const size_t paren = listening->find(" (");
+  const size_t colon = listening->rfind(':', paren);
+  rig->sim_port = listening->substr(colon + 1, paren - colon - 1);
+}
+
 TEST(Demo, SortsEveryCubeAndRecordsTheTwin) {
   const fs::path out = fresh_dir("demo");
   auto demo = ChildProcess::start(
@@ -142,18 +173,8 @@ TEST(Demo, SortsEveryCubeAndRecordsTheTwin) {
 // the fourth line's move.
 TEST(Script, StopsAtTheFailingLineAndMovesNothingAfter) {
   const fs::path dir = fresh_dir("script");
-  auto robot = ChildProcess::start(kBin / "scaratwin-robot",
-                                   {"--pty-link", (dir / "robot.pty").string()}, dir / "robot.log");
-  ASSERT_TRUE(robot) << robot.error().message;
-  auto sim = ChildProcess::start(
-      kBin / "scaratwin-sim", {"--port", "0", "--http-port", "0", "--no-camera"}, dir / "sim.log");
-  ASSERT_TRUE(sim) << sim.error().message;
-  ASSERT_TRUE((*robot)->wait_for_line("pty: ", 60s));
-  auto listening = (*sim)->wait_for_line("listening on", 60s);
-  ASSERT_TRUE(listening);
-  const size_t paren = listening->find(" (");
-  const size_t colon = listening->rfind(':', paren);
-  const std::string port = listening->substr(colon + 1, paren - colon - 1);
+  Rig rig;
+  ASSERT_NO_FATAL_FAILURE(start_rig(dir, false, &rig));
   {
     std::ofstream s(dir / "bad.txt");
     s << "# a script with an unreachable target on line 3\n"
@@ -161,11 +182,11 @@ TEST(Script, StopsAtTheFailingLineAndMovesNothingAfter) {
          "move 0.5 0.0 -0.02\n"
          "movej 0.05 -20 30 40\n";
   }
-  auto run = ChildProcess::start(
-      kBin / "scaratwin",
-      {"run", (dir / "bad.txt").string(), "--serial", (dir / "robot.pty").string(), "--sim",
-       "127.0.0.1:" + port, "--db", (dir / "twin.db").string()},
-      dir / "run.log");
+  auto run =
+      ChildProcess::start(kBin / "scaratwin",
+                          {"run", (dir / "bad.txt").string(), "--serial", rig.pty.string(), "--sim",
+                           "127.0.0.1:" + rig.sim_port, "--db", (dir / "twin.db").string()},
+                          dir / "run.log");
   ASSERT_TRUE(run);
   auto err = (*run)->wait_for_line("bad.txt:3", 300s);
   const int status = (*run)->wait_exit(120s);
@@ -186,8 +207,6 @@ TEST(Script, StopsAtTheFailingLineAndMovesNothingAfter) {
   EXPECT_NEAR(last[0], model.home[0], 1e-3);
   EXPECT_NEAR(last[1], model.home[1], deg_to_rad(0.5));
   EXPECT_NEAR(last[2], model.home[2], deg_to_rad(0.5));
-  (*robot)->stop();
-  (*sim)->stop();
 }
 
 // Steps lost by a motor do not show in the robot's counts (it has no encoders); homing again
@@ -195,23 +214,12 @@ TEST(Script, StopsAtTheFailingLineAndMovesNothingAfter) {
 // finds exactly those and raises a desync alarm; with nothing lost it finds 0 and raises none.
 TEST(Hub, HomingAgainFindsLostStepsAndRaisesADesyncAlarm) {
   const fs::path dir = fresh_dir("lost");
-  auto robot = ChildProcess::start(kBin / "scaratwin-robot",
-                                   {"--pty-link", (dir / "robot.pty").string()}, dir / "robot.log");
-  ASSERT_TRUE(robot) << robot.error().message;
-  auto sim = ChildProcess::start(
-      kBin / "scaratwin-sim", {"--port", "0", "--http-port", "0", "--no-camera"}, dir / "sim.log");
-  ASSERT_TRUE(sim) << sim.error().message;
-  auto side = (*robot)->wait_for_line("side channel: ", 60s);
-  ASSERT_TRUE(side);
-  auto listening = (*sim)->wait_for_line("listening on", 60s);
-  ASSERT_TRUE(listening);
-  const size_t paren = listening->find(" (");
-  const size_t colon = listening->rfind(':', paren);
+  Rig rig;
+  ASSERT_NO_FATAL_FAILURE(start_rig(dir, false, &rig));
   const RobotModel model = *load_robot_config(SCARATWIN_CONFIG_FILE);
   HubOptions opt;
-  opt.serial_device = (dir / "robot.pty").string();
-  opt.sim_port =
-      static_cast<std::uint16_t>(std::stoi(listening->substr(colon + 1, paren - colon - 1)));
+  opt.serial_device = rig.pty.string();
+  opt.sim_port = static_cast<std::uint16_t>(std::stoi(rig.sim_port));
   auto hub = Hub::connect(model, opt, nullptr);
   ASSERT_TRUE(hub) << hub.error().message;
   ASSERT_TRUE((*hub)->home());
@@ -225,12 +233,11 @@ TEST(Hub, HomingAgainFindsLostStepsAndRaisesADesyncAlarm) {
   EXPECT_EQ(c.offset_steps, (std::array<std::int32_t, 3>{0, 0, 0}));
   EXPECT_EQ((*hub)->desync_alarms(), 0);
   // the J2 motor slips 100 steps during the next move
-  const int side_port = std::stoi(side->substr(side->rfind(':') + 1));
   const int fd = ::socket(AF_INET, SOCK_STREAM, 0);
   ASSERT_GE(fd, 0);
   sockaddr_in addr{};
   addr.sin_family = AF_INET;
-  addr.sin_port = htons(static_cast<std::uint16_t>(side_port));
+  addr.sin_port = htons(static_cast<std::uint16_t>(rig.side_port));
   addr.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
   ASSERT_EQ(::connect(fd, reinterpret_cast<sockaddr*>(&addr), sizeof addr), 0);
   const std::string lose = "lose j2 100\n";
@@ -244,37 +251,22 @@ TEST(Hub, HomingAgainFindsLostStepsAndRaisesADesyncAlarm) {
   EXPECT_GT(c.tool_m, 0.003);
   EXPECT_EQ((*hub)->desync_alarms(), 1);
   ::close(fd);
-  hub->reset();
-  (*robot)->stop();
-  (*sim)->stop();
 }
 
 // The C++ example in examples/ against a running simulator and emulated robot.
 TEST(Examples, PickOneSortsACubeFromCpp) {
   const fs::path dir = fresh_dir("example");
-  auto robot = ChildProcess::start(kBin / "scaratwin-robot",
-                                   {"--pty-link", (dir / "robot.pty").string()}, dir / "robot.log");
-  ASSERT_TRUE(robot) << robot.error().message;
-  auto sim = ChildProcess::start(kBin / "scaratwin-sim", {"--port", "0", "--http-port", "0"},
-                                 dir / "sim.log");
-  ASSERT_TRUE(sim) << sim.error().message;
-  ASSERT_TRUE((*robot)->wait_for_line("pty: ", 60s));
-  auto listening = (*sim)->wait_for_line("listening on", 60s);
-  ASSERT_TRUE(listening);
-  const size_t paren = listening->find(" (");
-  const size_t colon = listening->rfind(':', paren);
-  const std::string port = listening->substr(colon + 1, paren - colon - 1);
-  auto ex = ChildProcess::start(
-      kBin / "pick_one", {(dir / "robot.pty").string(), port, (dir / "picture.png").string()},
-      dir / "ex.log");
+  Rig rig;
+  ASSERT_NO_FATAL_FAILURE(start_rig(dir, true, &rig));
+  auto ex = ChildProcess::start(kBin / "pick_one",
+                                {rig.pty.string(), rig.sim_port, (dir / "picture.png").string()},
+                                dir / "ex.log");
   ASSERT_TRUE(ex);
   auto done = (*ex)->wait_for_line("cubes in their tray: 1", 300s);
   const int status = (*ex)->wait_exit(120s);
   ASSERT_TRUE(done) << done.error().message;
   EXPECT_EQ(status, 0);
   EXPECT_GT(fs::file_size(dir / "picture.png"), 1000u);
-  (*robot)->stop();
-  (*sim)->stop();
 }
 
 }  // namespace

@@ -101,6 +101,17 @@ bool load_trajectory(Robot& r, const std::vector<Point>& pts, int* acks = nullpt
   return true;
 }
 
+// Jogs J2 from count 0 by `steps` and waits until the count is there and the motor stopped.
+void jog_j2_from_zero(Robot& r, int steps) {
+  ASSERT_EQ(r.request("JG=1=" + std::to_string(steps) + "=\n").value_or(""), "AK=JG=");
+  for (int i = 0; i < 400; ++i) {
+    auto st = r.query_state();
+    ASSERT_TRUE(st);
+    if (st->j2() == steps && (st->flags() & 2) == 0) return;
+  }
+  FAIL() << "J2 did not come to rest at " << steps;
+}
+
 class RobotTest : public ::testing::Test {
  protected:
   void SetUp() override { ASSERT_TRUE(robot.ok()) << robot.error(); }
@@ -283,12 +294,7 @@ TEST_F(RobotTest, SixHundredPointsStreamThroughFlowControlWithoutOverflow) {
 
 TEST_F(RobotTest, FaultsLostStepsAndACutLinkAreVisible) {
   ASSERT_EQ(robot.side("lose j2 5"), "OK lose j2 5");
-  ASSERT_EQ(robot.request("JG=1=200=\n").value_or(""), "AK=JG=");
-  for (int i = 0; i < 200; ++i) {
-    auto st = robot.query_state();
-    ASSERT_TRUE(st);
-    if (st->j2() == 200 && (st->flags() & 2) == 0) break;
-  }
+  ASSERT_NO_FATAL_FAILURE(jog_j2_from_zero(robot, 200));
   EXPECT_EQ(robot.truth().i("j2"), 195) << "the slipping belt lost 5 of 200 steps";
   // cut the link for 5 s of emulated time; everything is judged in emulated time, since the
   // unpaced emulator runs several times faster than the wall clock
@@ -324,12 +330,7 @@ TEST(RobotStart, HomingStartsFromBeyondASwitch) {
 TEST_F(RobotTest, HomingAgainReportsTheStepsTheMotorsLost) {
   ASSERT_TRUE(robot.home());
   ASSERT_EQ(robot.side("lose j2 40"), "OK lose j2 40");
-  ASSERT_EQ(robot.request("JG=1=400=\n").value_or(""), "AK=JG=");
-  for (int i = 0; i < 400; ++i) {
-    auto st = robot.query_state();
-    ASSERT_TRUE(st);
-    if (st->j2() == 400 && (st->flags() & 2) == 0) break;
-  }
+  ASSERT_NO_FATAL_FAILURE(jog_j2_from_zero(robot, 400));
   EXPECT_EQ(robot.truth().i("j2"), 360) << "the motor made 360 of 400 steps";
   ASSERT_EQ(robot.request("HM=\n").value_or(""), "AK=HM=");
   std::vector<std::string> events;
