@@ -87,6 +87,32 @@ class TableReader {
     out = tmp;
   }
 
+  // Reads an array of exactly N integers, each in [lo, hi].
+  template <size_t N>
+  void integers(const char* key, std::array<int, N>& out, int lo, int hi) {
+    const toml::node* n = get(key);
+    if (n == nullptr) return;
+    const toml::array* arr = n->as_array();
+    if (arr == nullptr || arr->size() != N) {
+      fail(fmt::format("{}: expected an array of {} integers", name(key), N));
+      return;
+    }
+    std::array<int, N> tmp{};
+    for (size_t i = 0; i < N; ++i) {
+      auto v = (*arr)[i].value<int64_t>();
+      if (!(*arr)[i].is_integer() || !v) {
+        fail(fmt::format("{}[{}]: expected an integer", name(key), i));
+        return;
+      }
+      if (*v < lo || *v > hi) {
+        fail(fmt::format("{}[{}] = {}: must be between {} and {}", name(key), i, *v, lo, hi));
+        return;
+      }
+      tmp[i] = static_cast<int>(*v);
+    }
+    out = tmp;
+  }
+
   TableReader sub(const char* key) {
     const toml::node* n = get(key);
     if (n != nullptr && !n->is_table()) {
@@ -237,6 +263,15 @@ Result<RobotModel> parse_robot_config(std::string_view toml_text, std::string_vi
     servos.reject_unknown("wrist, gripper");
   }
   {
+    TableReader end = top.sub("endstops");
+    end.number("z_m", m.endstops.closes_at[0]);
+    end.number("j2_deg", m.endstops.closes_at[1], 1.0 / kDegPerRad);
+    end.number("j3_deg", m.endstops.closes_at[2], 1.0 / kDegPerRad);
+    end.integers("homing_dir", m.endstops.homing_dir, -1, 1);
+    end.integer("pulloff_steps", m.endstops.pulloff_steps, 1, 1000);
+    end.reject_unknown("z_m, j2_deg, j3_deg, homing_dir, pulloff_steps");
+  }
+  {
     TableReader scene = top.sub("scene");
     scene.number("table_z_m", m.scene.table_z_m);
     scene.number("cube_size_m", m.scene.cube_size_m);
@@ -260,7 +295,7 @@ Result<RobotModel> parse_robot_config(std::string_view toml_text, std::string_vi
     cam.reject_unknown("pos_m, look_at_m, fovy_deg, width_px, height_px");
     scene.reject_unknown("table_z_m, cube_size_m, grasp_z_m, approach_height_m, trays, camera");
   }
-  top.reject_unknown("name, dh, limits, home, motors, servos, scene");
+  top.reject_unknown("name, dh, limits, home, motors, servos, endstops, scene");
   if (!error.empty()) return Error{1, fmt::format("{}: {}", source, error)};
   if (Status s = validate(m); !s) return Error{1, fmt::format("{}: {}", source, s.error().message)};
   return m;

@@ -34,6 +34,15 @@ std::array<std::int32_t, kNumSteppers> joints_to_steps(const RobotModel& model,
   return s;
 }
 
+std::array<std::int32_t, kNumSteppers> endstop_steps(const RobotModel& model) {
+  std::array<std::int32_t, kNumSteppers> s{};
+  for (int i = 0; i < kNumSteppers; ++i) {
+    s[i] = static_cast<std::int32_t>(
+        std::lround(model.endstops.closes_at[i] * steps_per_unit(model, i)));
+  }
+  return s;
+}
+
 JointVector motors_to_joints(const RobotModel& model, const std::array<double, kNumSteppers>& steps,
                              double wrist_deg) {
   JointVector q;

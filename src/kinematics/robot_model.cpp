@@ -30,6 +30,10 @@ RobotModel paper_robot() {
   m.motors.gripper = {0.0, 180.0, 544.0, 2400.0, 300.0};
   m.motors.gripper_open_deg = 0.0;
   m.motors.gripper_closed_deg = 75.0;
+  // the switches of the authors' robot: Z at the top, J2 beyond +115 deg, J3 beyond -75 deg
+  m.endstops.closes_at = {0.1225, deg_to_rad(117.0), deg_to_rad(-77.0)};
+  m.endstops.homing_dir = {+1, +1, -1};
+  m.endstops.pulloff_steps = 40;
   m.scene.table_z_m = -0.03;
   m.scene.cube_size_m = 0.02;
   m.scene.grasp_z_m = -0.02;
@@ -139,6 +143,41 @@ Status validate(const RobotModel& m) {
                       "range [{}, {}]",
                       g, m.motors.gripper.min_deg, m.motors.gripper.max_deg));
     }
+  }
+  // each switch must close beyond the joint's travel, on the side homing seeks it, so that
+  // normal motion never reaches it
+  for (int i = 0; i < 3; ++i) {
+    static constexpr const char* kKey[] = {"z_m", "j2_deg", "j3_deg"};
+    static constexpr const char* kLimitKey[] = {"j1_m", "j2_deg", "j3_deg"};
+    const double scale = i == 0 ? 1.0 : kDegPerRad;
+    const double at = m.endstops.closes_at[i];
+    const int dir = m.endstops.homing_dir[i];
+    const JointLimit& l = m.limits[i];
+    if (dir != 1 && dir != -1) {
+      return invalid(
+          fmt::format("endstops.homing_dir[{}] = {}: must be 1 (the switch is beyond "
+                      "the upper joint limit) or -1 (beyond the lower)",
+                      i, dir));
+    }
+    if (!std::isfinite(at)) {
+      return invalid(fmt::format("endstops.{}: must be a finite number", kKey[i]));
+    }
+    if (dir > 0 && !(at > l.max)) {
+      return invalid(fmt::format(
+          "endstops.{} = {}: homing seeks this switch upwards (endstops.homing_dir[{}] = 1), so "
+          "it must close beyond the upper joint limit {} (limits.{})",
+          kKey[i], at * scale, i, l.max * scale, kLimitKey[i]));
+    }
+    if (dir < 0 && !(at < l.min)) {
+      return invalid(fmt::format(
+          "endstops.{} = {}: homing seeks this switch downwards (endstops.homing_dir[{}] = -1), "
+          "so it must close beyond the lower joint limit {} (limits.{})",
+          kKey[i], at * scale, i, l.min * scale, kLimitKey[i]));
+    }
+  }
+  if (m.endstops.pulloff_steps < 1 || m.endstops.pulloff_steps > 1000) {
+    return invalid(fmt::format("endstops.pulloff_steps = {}: must be between 1 and 1000",
+                               m.endstops.pulloff_steps));
   }
   const SceneModel& s = m.scene;
   if (!finite_positive(s.cube_size_m) || s.cube_size_m > 0.1) {

@@ -27,6 +27,14 @@ TEST(Config, ShippedFileIsThePapersRobot) {
   EXPECT_DOUBLE_EQ(m->motors.z.max_accel_steps_s2, 1500.0);
   EXPECT_DOUBLE_EQ(m->scene.trays[1].x_m, p.scene.trays[1].x_m);
   EXPECT_EQ(m->scene.camera.width_px, 640);
+  for (int i = 0; i < 3; ++i) {
+    EXPECT_NEAR(m->endstops.closes_at[i], p.endstops.closes_at[i], 1e-15) << "axis " << i;
+    EXPECT_EQ(m->endstops.homing_dir[i], p.endstops.homing_dir[i]) << "axis " << i;
+  }
+  EXPECT_DOUBLE_EQ(m->endstops.closes_at[0], 0.1225);
+  EXPECT_NEAR(rad_to_deg(m->endstops.closes_at[1]), 117.0, 1e-12);
+  EXPECT_NEAR(rad_to_deg(m->endstops.closes_at[2]), -77.0, 1e-12);
+  EXPECT_EQ(m->endstops.pulloff_steps, 40);
 }
 
 TEST(Config, KeysLeftOutTakeThePapersDefaults) {
@@ -69,6 +77,47 @@ TEST(Config, BadValueNamesKeyValueAndValidRange) {
   EXPECT_NE(c.error().message.find("scene.camera.width_px = 9: must be between 16 and 4096"),
             std::string::npos)
       << c.error().message;
+}
+
+// Each bad [endstops] entry is named with its value and what would be valid.
+TEST(Config, BadEndstopIsNamed) {
+  const auto error_of = [](const char* toml) {
+    auto m = parse_robot_config(toml, "x.toml");
+    return m ? std::string("(accepted)") : m.error().message;
+  };
+  const std::string inside = error_of("[endstops]\nj2_deg = 100.0\n");
+  EXPECT_NE(inside.find("endstops.j2_deg = 100: homing seeks this switch upwards"),
+            std::string::npos)
+      << inside;
+  EXPECT_NE(inside.find("upper joint limit 115 (limits.j2_deg)"), std::string::npos) << inside;
+  const std::string wrong_side = error_of("[endstops]\nhoming_dir = [1, 1, 1]\n");
+  EXPECT_NE(wrong_side.find("endstops.j3_deg = -77"), std::string::npos) << wrong_side;
+  const std::string zero = error_of("[endstops]\nhoming_dir = [1, 0, -1]\n");
+  EXPECT_NE(zero.find("endstops.homing_dir[1] = 0: must be 1"), std::string::npos) << zero;
+  const std::string big = error_of("[endstops]\nhoming_dir = [1, 2, -1]\n");
+  EXPECT_NE(big.find("endstops.homing_dir[1] = 2: must be between -1 and 1"), std::string::npos)
+      << big;
+  const std::string short_dir = error_of("[endstops]\nhoming_dir = [1, 1]\n");
+  EXPECT_NE(short_dir.find("endstops.homing_dir: expected an array of 3 integers"),
+            std::string::npos)
+      << short_dir;
+  const std::string pulloff = error_of("[endstops]\npulloff_steps = 0\n");
+  EXPECT_NE(pulloff.find("endstops.pulloff_steps = 0: must be between 1 and 1000"),
+            std::string::npos)
+      << pulloff;
+  const std::string unknown = error_of("[endstops]\nz_mm = 122.5\n");
+  EXPECT_NE(unknown.find("endstops.z_mm: unknown key (valid keys: z_m, j2_deg"), std::string::npos)
+      << unknown;
+}
+
+// A description may move a switch, as long as it stays beyond the travel.
+TEST(Config, EndstopsMayMove) {
+  auto m =
+      parse_robot_config("[endstops]\nz_m = 0.125\nj3_deg = -80.0\npulloff_steps = 25\n", "x.toml");
+  ASSERT_TRUE(m) << m.error().message;
+  EXPECT_DOUBLE_EQ(m->endstops.closes_at[0], 0.125);
+  EXPECT_NEAR(m->endstops.closes_at[2], deg_to_rad(-80.0), 1e-15);
+  EXPECT_EQ(m->endstops.pulloff_steps, 25);
 }
 
 TEST(Config, SyntaxErrorGivesFileAndLine) {

@@ -258,5 +258,19 @@ TEST(Motor, ConvertsJointsToStepsWithBeltCoupling) {
   EXPECT_NEAR(s1[2] - s0[2], 0.8 * (s1[1] - s0[1]), 1.0);
 }
 
+// The paper's switches in counts: Z 0.1225 m, J2 117 deg, J3 -77 deg as a joint count (no
+// coupling share: the J3 switch senses the joint).
+TEST(Motor, EndstopStepsAreTheNearestCountsOfTheSwitches) {
+  const auto s = endstop_steps(model());
+  EXPECT_EQ(s[0], 25181);  // 0.1225 x 205560 = 25181.1
+  EXPECT_EQ(s[1], 1930);   // 117 deg = 2.04204 rad x 945 = 1929.7
+  EXPECT_EQ(s[2], -1955);  // -77 deg = -1.34390 rad x 1455 = -1955.4
+  RobotModel m = model();
+  m.motors.j2.steps_per_unit = 2000.0;
+  m.motors.j3_per_j2_coupling = 1.5;
+  EXPECT_EQ(endstop_steps(m)[1], 4084);   // 2.04204 x 2000 = 4084.07
+  EXPECT_EQ(endstop_steps(m)[2], -1955);  // unchanged by the coupling
+}
+
 }  // namespace
 }  // namespace scaratwin

@@ -32,4 +32,9 @@ JointVector motors_to_joints(const RobotModel& model, const std::array<double, k
 // Steps per joint unit of each stepper and its joint index (Z->d1, J2->q2, J3->q3).
 double steps_per_unit(const RobotModel& model, int stepper);
 
+// The step count each stepper's counter takes when its endstop switch closes (nearest whole
+// step of the switch position x steps per unit). Z and J2 are motor counts; J3's is a joint
+// count, without the J2 motor's coupling share, because its switch senses the joint.
+std::array<std::int32_t, kNumSteppers> endstop_steps(const RobotModel& model);
+
 }  // namespace scaratwin

@@ -67,6 +67,18 @@ struct MotorModel {
   double gripper_closed_deg = 75.0;
 };
 
+// The endstop switches of the three steppers (Z, J2, J3, in stepper order), which homing seeks.
+// Each closes just beyond one end of its joint's travel, on the side homing moves towards.
+struct EndstopModel {
+  // Joint value at which each switch closes: d1 (m), q2 and q3 (rad). J3's switch senses the
+  // joint, so the J2 motor's belt coupling does not move it.
+  std::array<double, 3> closes_at{};
+  // Direction each axis moves to find its switch: +1 (beyond the upper limit) or -1.
+  std::array<int, 3> homing_dir{+1, +1, -1};
+  // Motor steps homing backs off a switch after it has closed (every axis).
+  int pulloff_steps = 40;
+};
+
 enum class CubeColor { kRed = 0, kGreen = 1, kBlue = 2 };
 inline constexpr int kNumColors = 3;
 
@@ -102,6 +114,7 @@ struct RobotModel {
   std::array<JointLimit, kNumJoints> limits{};
   JointVector home{};
   MotorModel motors;
+  EndstopModel endstops;
   SceneModel scene;
 };
 
