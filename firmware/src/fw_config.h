@@ -1,11 +1,17 @@
 // Compile-time constants of the firmware: version, timing of the step generator, sizes of the
-// buffers (smaller on the Uno's 2 KiB of RAM) and the default settings. The defaults are the
-// paper's robot as described in config/scara.toml (steps per metre / radian, motor limits,
-// servo pulses); tests/firmware checks that they agree with that file. Everything that the
-// user may change at run time is a setting (settings.h), stored in EEPROM.
+// buffers (smaller on the Uno's 2 KiB of RAM) and the default settings. The defaults that
+// describe the robot (speed and acceleration limits, servo pulses, gripper angles, belt
+// coupling, endstop and home counts, homing directions, pull-off) come from fw_description.h,
+// which the build generates from the robot description (config/scara.toml, or the file
+// SCARATWIN_ROBOT_DESCRIPTION names; firmware/tools/fw_description.cpp); the static_asserts
+// below hold them to the ranges of the settings. tests/firmware checks the generated values
+// against the description. Everything that the user may change at run time is a setting
+// (settings.h), stored in EEPROM.
 #pragma once
 
 #include <stdint.h>
+
+#include "fw_description.h"  // generated in <build>/firmware/generated
 
 #define FW_VERSION "0.1.0"
 #define FW_PROTO_VERSION 1
@@ -29,26 +35,44 @@ constexpr uint16_t kJogSegmentMs = 10;  // duration of generated jog / homing se
 constexpr uint16_t kMaxPointMs = 5000;  // longest dt_ms of one trajectory point
 constexpr uint8_t kLineMax = 96;        // longest serial packet including "\r\n"
 
-// defaults of config/scara.toml, converted to the firmware's units
-constexpr uint16_t kDefaultMaxSpeed = 5000;  // steps/s, all steppers
-constexpr uint16_t kDefaultMaxAccel = 1500;  // steps/s^2
+// defaults of the robot description, converted to the firmware's units (fw_description.h)
+static_assert(desc::kMaxSpeedStepsS >= 1 && desc::kMaxSpeedStepsS <= (int32_t)(kTickHz / 2),
+              "robot description: max_speed_steps_s must be 1..10000 (one step per two ticks)");
+static_assert(desc::kMaxAccelStepsS2 >= 1 && desc::kMaxAccelStepsS2 <= 60000,
+              "robot description: max_accel_steps_s2 must be 1..60000");
+static_assert(desc::kGripOpenCdeg >= 0 && desc::kGripOpenCdeg <= 18000 &&
+                  desc::kGripClosedCdeg >= 0 && desc::kGripClosedCdeg <= 18000,
+              "robot description: gripper open_deg and closed_deg must be 0..180");
+static_assert(desc::kServoSpeedCdegS >= 100 && desc::kServoSpeedCdegS <= 60000,
+              "robot description: servo max_speed_deg_s must be 1..600");
+static_assert(desc::kCouplingPermille >= 0 && desc::kCouplingPermille <= 5000,
+              "robot description: coupling_steps_per_j2_step must be 0..5");
+static_assert(desc::kServoMinUs >= 200 && desc::kServoMinUs < desc::kServoMaxUs &&
+                  desc::kServoMaxUs <= 3000,
+              "robot description: servo pulses must be 200 <= pulse_min_us < pulse_max_us <= 3000");
+static_assert(desc::kPulloffSteps >= 1 && desc::kPulloffSteps <= 1000,
+              "robot description: endstops.pulloff_steps must be 1..1000");
+constexpr uint16_t kDefaultMaxSpeed = (uint16_t)desc::kMaxSpeedStepsS;   // steps/s, all steppers
+constexpr uint16_t kDefaultMaxAccel = (uint16_t)desc::kMaxAccelStepsS2;  // steps/s^2
+constexpr uint16_t kDefaultGripOpenCdeg = (uint16_t)desc::kGripOpenCdeg;
+constexpr uint16_t kDefaultGripClosedCdeg = (uint16_t)desc::kGripClosedCdeg;
+constexpr uint16_t kDefaultServoSpeed = (uint16_t)desc::kServoSpeedCdegS;  // cdeg/s
+constexpr uint16_t kDefaultServoMinUs = (uint16_t)desc::kServoMinUs;
+constexpr uint16_t kDefaultServoMaxUs = (uint16_t)desc::kServoMaxUs;
+constexpr uint16_t kDefaultCouplingPermille = (uint16_t)desc::kCouplingPermille;  // per 1000 J2
+constexpr uint16_t kDefaultPulloff = (uint16_t)desc::kPulloffSteps;  // steps backed off a switch
+
+// Endstops: the count each axis takes when its switch closes while homing (J3's is a joint
+// count: the firmware adds the coupling of the J2 motor), and the direction homing seeks it.
+constexpr int32_t kDefaultEndstop[kNumAxes] = {desc::kEndstopZ, desc::kEndstopJ2, desc::kEndstopJ3};
+constexpr int8_t kDefaultHomingDir[kNumAxes] = {desc::kHomingDirZ, desc::kHomingDirJ2,
+                                                desc::kHomingDirJ3};
+// Home pose: motor counts the robot moves to after homing.
+constexpr int32_t kDefaultHome[kNumAxes] = {desc::kHomeZ, desc::kHomeJ2, desc::kHomeJ3};
+
+// firmware settings that the robot description does not hold
 constexpr uint16_t kDefaultReportHz = 100;
-constexpr uint16_t kDefaultGripOpenCdeg = 0;
-constexpr uint16_t kDefaultGripClosedCdeg = 7500;
 constexpr uint16_t kDefaultHomingSpeed = 1500;  // steps/s while seeking an endstop
 constexpr uint16_t kDefaultJogSpeed = 1000;     // steps/s for buttons and JG
-constexpr uint16_t kDefaultServoSpeed = 30000;  // cdeg/s (300 deg/s)
-constexpr uint16_t kDefaultServoMinUs = 544;
-constexpr uint16_t kDefaultServoMaxUs = 2400;
-constexpr uint16_t kDefaultCouplingPermille = 800;  // J3 motor steps per 1000 J2 steps
-constexpr uint16_t kDefaultPulloff = 40;            // steps backed off an endstop
-
-// Endstops: the motor count each axis takes when its switch closes while homing. Z's switch
-// is at the top (d1 = 0.1225 m), J2's beyond +115 deg (q2 = 117 deg), J3's beyond -75 deg
-// (q3 = -77 deg; a J3 joint count, the firmware adds the coupling of the J2 motor).
-constexpr int32_t kDefaultEndstop[kNumAxes] = {25181, 1930, -1955};
-constexpr int8_t kDefaultHomingDir[kNumAxes] = {+1, +1, -1};
-// Home pose (d1 = 0.12 m, q2 = q3 = 0): motor counts the robot moves to after homing.
-constexpr int32_t kDefaultHome[kNumAxes] = {24667, 0, 0};
 
 }  // namespace fw

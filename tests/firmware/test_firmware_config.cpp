@@ -1,48 +1,76 @@
-// The firmware's compiled-in defaults (firmware/src/fw_config.h) against the robot description
-// (config/scara.toml): one source of truth, checked rather than copied by hand.
+// The firmware's compiled-in defaults (firmware/src/fw_config.h, from the header the build
+// generates out of the robot description) against the description itself: the same file,
+// loaded here and converted with the rounding formulas written out again, independently of the
+// generator and of scaratwin's motor conversions.
 #include <gtest/gtest.h>
 
 #include <cmath>
 
 #include "fw_config.h"
 #include "scaratwin/config/robot_config.hpp"
-#include "scaratwin/kinematics/motor.hpp"
 
 namespace {
 
-TEST(FirmwareDefaults, AgreeWithTheRobotDescription) {
+// The description the header was generated from (SCARATWIN_ROBOT_DESCRIPTION).
+scaratwin::RobotModel description() {
   auto model = scaratwin::load_robot_config(SCARATWIN_CONFIG_FILE);
-  ASSERT_TRUE(model.ok()) << model.error().message;
-  const auto& m = model->motors;
-  for (const auto* axis : {&m.z, &m.j2, &m.j3}) {
-    EXPECT_EQ(fw::kDefaultMaxSpeed, std::lround(axis->max_speed_steps_s));
-    EXPECT_EQ(fw::kDefaultMaxAccel, std::lround(axis->max_accel_steps_s2));
-  }
-  EXPECT_EQ(fw::kDefaultCouplingPermille, std::lround(m.j3_per_j2_coupling * 1000));
-  EXPECT_EQ(fw::kDefaultServoMinUs, std::lround(m.wrist.pulse_min_us));
-  EXPECT_EQ(fw::kDefaultServoMaxUs, std::lround(m.wrist.pulse_max_us));
-  EXPECT_EQ(fw::kDefaultGripOpenCdeg, std::lround(m.gripper_open_deg * 100));
-  EXPECT_EQ(fw::kDefaultGripClosedCdeg, std::lround(m.gripper_closed_deg * 100));
-  const auto home = scaratwin::joints_to_steps(*model, model->home);
-  for (int i = 0; i < 3; ++i) EXPECT_EQ(fw::kDefaultHome[i], home[i]) << "axis " << i;
+  if (!model) ADD_FAILURE() << model.error().message;
+  return model ? *model : scaratwin::paper_robot();
 }
 
-TEST(FirmwareDefaults, EndstopsSitJustBeyondTheJointLimits) {
-  auto model = scaratwin::load_robot_config(SCARATWIN_CONFIG_FILE);
-  ASSERT_TRUE(model.ok());
-  const auto& lim = model->limits;
-  const double z_m = fw::kDefaultEndstop[0] / model->motors.z.steps_per_unit;
-  const double q2 = fw::kDefaultEndstop[1] / model->motors.j2.steps_per_unit;
-  const double q3 = fw::kDefaultEndstop[2] / model->motors.j3.steps_per_unit;
-  EXPECT_GT(z_m, lim[0].max);
-  EXPECT_LT(z_m, lim[0].max + 0.005);
-  EXPECT_GT(q2, lim[1].max);
-  EXPECT_LT(q2, lim[1].max + 5 * M_PI / 180);
-  EXPECT_LT(q3, lim[2].min);
-  EXPECT_GT(q3, lim[2].min - 5 * M_PI / 180);
-  EXPECT_EQ(fw::kDefaultHomingDir[0], +1);
-  EXPECT_EQ(fw::kDefaultHomingDir[1], +1);
-  EXPECT_EQ(fw::kDefaultHomingDir[2], -1);
+long nearest(double v) { return std::lround(v); }
+
+TEST(FirmwareDefaults, MotorLimitsServosAndCouplingAreTheDescriptions) {
+  const scaratwin::RobotModel model = description();
+  const auto& m = model.motors;
+  for (const auto* axis : {&m.z, &m.j2, &m.j3}) {
+    EXPECT_EQ(fw::kDefaultMaxSpeed, nearest(axis->max_speed_steps_s));
+    EXPECT_EQ(fw::kDefaultMaxAccel, nearest(axis->max_accel_steps_s2));
+  }
+  EXPECT_EQ(fw::kDefaultCouplingPermille, nearest(m.j3_per_j2_coupling * 1000));
+  for (const auto* servo : {&m.wrist, &m.gripper}) {
+    EXPECT_EQ(fw::kDefaultServoMinUs, nearest(servo->pulse_min_us));
+    EXPECT_EQ(fw::kDefaultServoMaxUs, nearest(servo->pulse_max_us));
+    EXPECT_EQ(fw::kDefaultServoSpeed, nearest(servo->max_speed_deg_s * 100));
+  }
+  EXPECT_EQ(fw::kDefaultGripOpenCdeg, nearest(m.gripper_open_deg * 100));
+  EXPECT_EQ(fw::kDefaultGripClosedCdeg, nearest(m.gripper_closed_deg * 100));
+}
+
+TEST(FirmwareDefaults, EndstopAndHomeCountsAreTheDescriptions) {
+  const scaratwin::RobotModel model = description();
+  const double kz = model.motors.z.steps_per_unit;   // steps per metre
+  const double k2 = model.motors.j2.steps_per_unit;  // steps per radian
+  const double k3 = model.motors.j3.steps_per_unit;
+  const double c = model.motors.j3_per_j2_coupling;
+  const auto& e = model.endstops;
+  // switches: nearest count of the switch position; J3's a joint count (no coupling share)
+  EXPECT_EQ(fw::kDefaultEndstop[0], nearest(e.closes_at[0] * kz));
+  EXPECT_EQ(fw::kDefaultEndstop[1], nearest(e.closes_at[1] * k2));
+  EXPECT_EQ(fw::kDefaultEndstop[2], nearest(e.closes_at[2] * k3));
+  for (int i = 0; i < 3; ++i) EXPECT_EQ(fw::kDefaultHomingDir[i], e.homing_dir[i]) << "axis " << i;
+  EXPECT_EQ(fw::kDefaultPulloff, e.pulloff_steps);
+  // home: motor counts, J3 with the J2 motor's share (before rounding, as the hub computes it)
+  const auto& h = model.home;
+  EXPECT_EQ(fw::kDefaultHome[0], nearest(h[0] * kz));
+  EXPECT_EQ(fw::kDefaultHome[1], nearest(h[1] * k2));
+  EXPECT_EQ(fw::kDefaultHome[2], nearest(h[2] * k3 + c * h[1] * k2));
+}
+
+// Whatever the description, homing seeks each switch beyond the travel: the counts lie past the
+// limits, on the side of the homing direction.
+TEST(FirmwareDefaults, EndstopsSitBeyondTheJointLimitsWhereHomingSeeksThem) {
+  const scaratwin::RobotModel model = description();
+  const double k[3] = {model.motors.z.steps_per_unit, model.motors.j2.steps_per_unit,
+                       model.motors.j3.steps_per_unit};
+  for (int i = 0; i < 3; ++i) {
+    const auto& lim = model.limits[i];
+    if (fw::kDefaultHomingDir[i] > 0) {
+      EXPECT_GT(fw::kDefaultEndstop[i], lim.max * k[i]) << "axis " << i;
+    } else {
+      EXPECT_LT(fw::kDefaultEndstop[i], lim.min * k[i]) << "axis " << i;
+    }
+  }
 }
 
 }  // namespace
