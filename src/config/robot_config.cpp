@@ -189,6 +189,77 @@ void read_servo(TableReader t, ServoSpec& s, double* open_deg, double* closed_de
   }
 }
 
+void read_physical(TableReader& top, PhysicalModel& p) {
+  {
+    TableReader d = top.sub("drive");
+    d.number("supply_v", p.drive.supply_v);
+    StepperDrive& m = p.drive.motor;
+    d.number("holding_torque_nm", m.holding_torque_nm);
+    d.number("rated_current_a", m.rated_current_a);
+    d.number("current_a", m.current_a);
+    d.number("resistance_ohm", m.resistance_ohm);
+    d.number("inductance_mh", m.inductance_h, 1e-3);
+    d.number("rotor_inertia_gcm2", m.rotor_inertia_kgm2, 1e-7);
+    d.number("detent_torque_nm", m.detent_torque_nm);
+    d.number("friction_nm", m.friction_nm);
+    d.number("viscous_nms", m.viscous_nms);
+    d.integer("full_steps_per_rev", m.full_steps_per_rev, 4, 1000);
+    d.integer("microsteps", m.microsteps, 1, 256);
+    d.numbers("stiffness", p.drive.stiffness);
+    d.numbers("damping", p.drive.damping);
+    d.reject_unknown(
+        "supply_v, holding_torque_nm, rated_current_a, current_a, resistance_ohm, "
+        "inductance_mh, rotor_inertia_gcm2, detent_torque_nm, friction_nm, viscous_nms, "
+        "full_steps_per_rev, microsteps, stiffness, damping");
+    const double positive[] = {p.drive.supply_v, m.holding_torque_nm, m.rated_current_a,
+                               m.current_a, m.resistance_ohm, m.inductance_h,
+                               m.rotor_inertia_kgm2, p.drive.stiffness[0],
+                               p.drive.stiffness[1], p.drive.stiffness[2]};
+    for (double v : positive) {
+      if (!(v > 0.0)) {
+        d.fail(fmt::format("drive: {} is not positive: supply, torque, currents, resistance, "
+                           "inductance, inertia and stiffness must be > 0",
+                           v));
+        break;
+      }
+    }
+    if (m.current_a > m.rated_current_a * 1.5) {
+      d.fail(fmt::format("drive.current_a = {} A: more than 1.5 x the rated {} A", m.current_a,
+                         m.rated_current_a));
+    }
+  }
+  {
+    TableReader a = top.sub("as_built");
+    int seed = static_cast<int>(p.as_built.seed);
+    a.integer("seed", seed, 0, 2147483647);
+    p.as_built.seed = static_cast<std::uint64_t>(seed);
+    const auto& keys = as_built_keys();
+    std::string valid;
+    for (const AsBuiltKey& k : keys) valid += (valid.empty() ? "" : ", ") + std::string(k.key);
+    TableReader tol = a.sub("tolerance");
+    TableReader val = a.sub("values");
+    for (int i = 0; i < kAsBuiltCount; ++i) {
+      const std::string key(keys[i].key);
+      double t = p.as_built.tolerance[i] / keys[i].to_si;
+      tol.number(key.c_str(), t);
+      if (t < 0.0) tol.fail(fmt::format("as_built.tolerance.{} = {}: must be >= 0", key, t));
+      p.as_built.tolerance[i] = t * keys[i].to_si;
+      double v = std::nan("");
+      val.number(key.c_str(), v);
+      if (!std::isnan(v)) {
+        if (keys[i].magnitude && v < 0.0) {
+          val.fail(fmt::format("as_built.values.{} = {}: a dead band must be >= 0", key, v));
+        }
+        p.as_built.fixed[i] = true;
+        p.as_built.value[i] = v * keys[i].to_si;
+      }
+    }
+    tol.reject_unknown(valid);
+    val.reject_unknown(valid);
+    a.reject_unknown("seed, tolerance, values");
+  }
+}
+
 }  // namespace
 
 Result<RobotModel> parse_robot_config(std::string_view toml_text, std::string_view source) {
@@ -295,7 +366,8 @@ Result<RobotModel> parse_robot_config(std::string_view toml_text, std::string_vi
     cam.reject_unknown("pos_m, look_at_m, fovy_deg, width_px, height_px");
     scene.reject_unknown("table_z_m, cube_size_m, grasp_z_m, approach_height_m, trays, camera");
   }
-  top.reject_unknown("name, dh, limits, home, motors, servos, endstops, scene");
+  read_physical(top, m.physical);
+  top.reject_unknown("name, dh, limits, home, motors, servos, endstops, scene, drive, as_built");
   if (!error.empty()) return Error{1, fmt::format("{}: {}", source, error)};
   if (Status s = validate(m); !s) return Error{1, fmt::format("{}: {}", source, s.error().message)};
   return m;

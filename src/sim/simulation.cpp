@@ -399,7 +399,74 @@ void Simulation::apply_mirror_pose() {
   }
 }
 
+void Simulation::enable_drive(const std::array<double, 3>& damping,
+                              const std::array<double, 3>& armature,
+                              const std::array<double, 3>& frictionloss) {
+  set_mode(Mode::kSimulate);
+  traj_.reset();
+  driven_ = true;
+  drive_force_ = {};
+  drive_wrist_rad_ = joints()[3];
+  for (int j = 0; j < 3; ++j) {
+    const int a = ids_.actuator[j];
+    m_->actuator_gainprm[a * mjNGAIN] = 0.0;
+    m_->actuator_biasprm[a * mjNBIAS + 1] = 0.0;
+    m_->dof_damping[ids_.dof[j]] = damping[j];
+    m_->dof_armature[ids_.dof[j]] = armature[j];
+    m_->dof_frictionloss[ids_.dof[j]] = frictionloss[j];
+  }
+  // physical jaws: the fingers touch the cubes (a jaw that lands on a cube pushes it)
+  for (int f = 0; f < 2; ++f) {
+    const int body = m_->jnt_bodyid[m_->dof_jntid[ids_.finger_dof[f]]];
+    for (int g = 0; g < m_->body_geomnum[body]; ++g) {
+      m_->geom_contype[m_->body_geomadr[body] + g] = 1;
+      m_->geom_conaffinity[m_->body_geomadr[body] + g] = 1;
+    }
+  }
+}
+
+void Simulation::set_drive(const std::array<double, 3>& force, double wrist_target_rad) {
+  drive_force_ = force;
+  drive_wrist_rad_ = wrist_target_rad;
+}
+
+void Simulation::add_payload(double mass_kg) {
+  if (!(mass_kg > 0.0)) return;
+  // a point mass at the tool: the gripper body's mass, centre and inertia combined
+  const int b = ids_.gripper_body;
+  const double m0 = m_->body_mass[b];
+  const double* tool_local = m_->site_pos + 3 * ids_.tool_site;
+  double* com = m_->body_ipos + 3 * b;
+  const double m1 = m0 + mass_kg;
+  for (int i = 0; i < 3; ++i) com[i] = (m0 * com[i] + mass_kg * tool_local[i]) / m1;
+  m_->body_mass[b] = m1;
+  // inertia about the new centre: a generous sphere of the combined mass (the payload's
+  // offset dominates the arm's inertia about the joints, which MuJoCo adds itself)
+  for (int i = 0; i < 3; ++i) m_->body_inertia[3 * b + i] += mass_kg * 4e-5;
+  // (no mj_setConst: it would put the joints back at qpos0; the dynamics read these fields
+  // directly at every step)
+}
+
+JointVector Simulation::joint_velocities() const {
+  JointVector v{};
+  for (int j = 0; j < kNumJoints; ++j) v[j] = d_->qvel[ids_.dof[j]];
+  return v;
+}
+
 void Simulation::apply_simulate_controls() {
+  if (driven_) {
+    for (int j = 0; j < 3; ++j) {
+      d_->ctrl[ids_.actuator[j]] = 0.0;
+      d_->qfrc_applied[ids_.dof[j]] = drive_force_[j];
+    }
+    d_->ctrl[ids_.actuator[3]] = drive_wrist_rad_;
+    d_->qfrc_applied[ids_.dof[3]] = d_->qfrc_bias[ids_.dof[3]];
+    const GripperGeometry g = gripper_geometry(robot_);
+    for (int f = 0; f < 2; ++f) {
+      d_->ctrl[ids_.actuator[kNumJoints + f]] = gripper_closed_ ? 0.0 : g.open_travel_m;
+    }
+    return;
+  }
   JointVector q = target_, qd{};
   if (traj_) {
     std::size_t hint = 0;

@@ -10,6 +10,7 @@
 #include <vector>
 
 #include "scaratwin/core/result.hpp"
+#include "scaratwin/kinematics/physical.hpp"
 
 namespace scaratwin {
 
@@ -116,6 +117,7 @@ struct RobotModel {
   MotorModel motors;
   EndstopModel endstops;
   SceneModel scene;
+  PhysicalModel physical;  // the robot as built: only the emulated plant reads it
 };
 
 // The paper's robot with every default of DESIGN.md.

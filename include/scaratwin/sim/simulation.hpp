@@ -144,6 +144,21 @@ class Simulation {
   Status reset_robot();
   bool trajectory_active() const { return traj_.has_value(); }
 
+  // --- driven: the emulated physical robot ---------------------------------------------------
+  // Simulate mode with the servos of j1..j3 switched off: their motion comes only from the
+  // forces (N, N m) that the caller sets before each step (the plant's transmissions), while
+  // j4 follows a position target (its hobby servo). The joints' damping and armature are
+  // replaced by the given ones (the virtual robot's are sized for its position servos), with
+  // a Coulomb friction (N, N m) for each; the fingers become solid (they push what they land
+  // on). Trajectories are dropped; the gripper works as in simulate mode.
+  void enable_drive(const std::array<double, 3>& damping, const std::array<double, 3>& armature,
+                    const std::array<double, 3>& frictionloss);
+  bool driven() const { return driven_; }
+  void set_drive(const std::array<double, 3>& force, double wrist_target_rad);
+  // Adds a point mass at the tool (a payload), kg.
+  void add_payload(double mass_kg);
+  JointVector joint_velocities() const;
+
   // --- gripper ------------------------------------------------------------------------------
   // Closes the fingers and holds the cube between them if there is one.
   GraspResult grip();
@@ -227,6 +242,9 @@ class Simulation {
   };
   std::optional<ActiveTrajectory> traj_;
   bool gripper_closed_ = false;
+  bool driven_ = false;
+  std::array<double, 3> drive_force_{};
+  double drive_wrist_rad_ = 0.0;
   int held_ = -1;
 
   std::deque<ToolPoint> path_;
