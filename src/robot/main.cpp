@@ -91,6 +91,11 @@ int main(int argc, char** argv) {
   for (int i = 0; i < 3; ++i) {
     opt.mechanics.start_steps[i] = start_steps.size() == 3 ? start_steps[i] : home[i];
   }
+  // the switches close where the description's [endstops] says (J3's on its joint count)
+  const auto endstop = endstop_steps(*model);
+  opt.mechanics.z_endstop = endstop[0];
+  opt.mechanics.j2_endstop = endstop[1];
+  opt.mechanics.j3_endstop = endstop[2];
   opt.mechanics.coupling_permille =
       static_cast<std::int32_t>(std::lround(model->motors.j3_per_j2_coupling * 1000.0));
   opt.mechanics.servo_min_us = model->motors.wrist.pulse_min_us;

@@ -3,9 +3,14 @@
 
 #include <cmath>
 
+#include "scaratwin/core/result.hpp"
+
 namespace scaratwin::robot {
 
 Mechanics::Mechanics(const MechanicsConfig& config) : config_(config) {
+  SCARATWIN_CHECK(
+      config.servo_max_us > config.servo_min_us && config.servo_max_deg > config.servo_min_deg,
+      "MechanicsConfig not filled from the robot description");
   steps_ = config.start_steps;
 }
 

@@ -16,20 +16,22 @@ namespace scaratwin::robot {
 
 inline constexpr int kAxes = 3;  // Z, J2, J3 steppers
 
-// Mechanical parameters, in motor steps and the servos' pulse ranges.
+// Mechanical parameters, in motor steps and the servos' pulse ranges. They have no defaults of
+// their own: scaratwin-robot (main.cpp) fills every field from the robot description, with the
+// conversions of scaratwin/kinematics/motor.hpp.
 struct MechanicsConfig {
-  std::array<std::int32_t, kAxes> start_steps{24667, 0, 0};  // true position at power-up
+  std::array<std::int32_t, kAxes> start_steps{};  // true position at power-up
   // Endstop switches: Z closes at z >= z_endstop, J2 at j2 >= j2_endstop, J3 (a joint switch,
   // so the J2 motor's belt coupling counts) at j3 - coupling * j2 <= j3_endstop.
-  std::int32_t z_endstop = 25181;
-  std::int32_t j2_endstop = 1930;
-  std::int32_t j3_endstop = -1955;
-  std::int32_t coupling_permille = 800;
+  std::int32_t z_endstop = 0;
+  std::int32_t j2_endstop = 0;
+  std::int32_t j3_endstop = 0;
+  std::int32_t coupling_permille = 0;  // J3 motor steps per 1000 J2 motor steps
   // Servos: pulse widths at the ends of the angle range (deg).
-  double servo_min_us = 544.0;
-  double servo_max_us = 2400.0;
+  double servo_min_us = 0.0;
+  double servo_max_us = 0.0;
   double servo_min_deg = 0.0;
-  double servo_max_deg = 180.0;
+  double servo_max_deg = 0.0;
 };
 
 class Mechanics {
