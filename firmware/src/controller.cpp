@@ -184,7 +184,7 @@ void cmd_tp(const core::Packet& p) {
   if (!g_traj.active) return reply_er(core::kErrSequence, true, 0);
   if (p.i32(0) != (int32_t)g_traj.next_seq)
     return reply_er(core::kErrSequence, true, g_traj.next_seq);
-  MotionQueue& q = stepper_queue();
+  const MotionQueue& q = stepper_queue();
   if (q.free_slots() == 0) return reply_er(core::kErrQueueFull, true, 0);
   TimedPoint pt;
   pt.seq = g_traj.next_seq;
@@ -206,7 +206,7 @@ void cmd_tp(const core::Packet& p) {
   uint8_t axis = 0;
   PlanError e = plan_point(limits(), g_traj.plan, pt, seg, &axis);
   if (e != kPlanOk) return reply_er(core::kErrBadValue, true, 2 + axis);
-  q.push(seg);
+  stepper_push(seg);
   g_traj.next_seq++;
   g_traj.underrun_sent = false;
   if (pt.last || q.free_slots() == 0) stepper_set_run(true);
@@ -426,6 +426,7 @@ void controller_poll() {
   const uint32_t now = clock_micros();
   handle_realtime();
   read_serial();
+  stepper_poll();
   handle_stepper_events();
   handle_buttons(now);
   jog_feed(g_settings, homing_active() ? g_settings.homing_speed : g_settings.jog_speed);

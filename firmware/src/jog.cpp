@@ -29,7 +29,7 @@ bool jog_active() { return !ramps_idle() || stepper_active(); }
 
 void jog_feed(const Settings& s, uint16_t speed) {
   if (ramps_idle()) return;
-  MotionQueue& q = stepper_queue();
+  const MotionQueue& q = stepper_queue();
   const float dt_s = (float)kJogSegmentMs / 1000.0f;
   while (q.count() < kLookahead && !ramps_idle()) {
     Segment seg;
@@ -45,7 +45,7 @@ void jog_feed(const Settings& s, uint16_t speed) {
     seg.grip_cdeg = 0;
     seg.seq = 0;
     seg.flags = 0;
-    q.push(seg);
+    stepper_push(seg);
   }
   stepper_set_run(true);
 }

@@ -29,8 +29,10 @@ volatile uint8_t g_endstop_hit = 0;
 volatile uint16_t g_done_seq = 0;
 volatile int16_t g_grip_req = 0;
 volatile uint8_t g_guard = 0;
-uint8_t g_endstops_prev = 0;
+volatile uint8_t g_endstops_prev = 0;
 volatile uint8_t g_endstops = 0;
+uint8_t g_step_mask = 0;          // STEP pins the last tick raised (lowered by the next one)
+volatile bool g_ticking = false;  // Timer2 runs; it is stopped while there is nothing to step
 
 inline uint8_t read_endstops() {
   // switches pull the input low when closed
@@ -84,25 +86,59 @@ inline void halt_all() {
   g_scale_q16 = 65536;
 }
 
+// Whether a tick would have anything to do: a STEP pulse to end, a request to act on, a
+// segment to run (not one held at rest), queued segments allowed to start, or a switch that
+// changed since the last tick read it. With interrupts disabled.
+inline bool has_work() {
+  if (g_step_mask != 0 || g_stop_req || (g_hold_req && !g_held)) return true;
+  if (g_active) return !(g_hold_req && g_scale_q16 == 0);
+  if (g_run && !g_hold_req && !g_blocked && !g_queue.empty()) return true;
+  return read_endstops() != g_endstops_prev;
+}
+
+// Starts Timer2 if it is stopped; the first tick comes one period (50 us) later. Safe from
+// any context: inside the step interrupt (g_ticking is true there) it does nothing, and the
+// interrupt checks has_work() before it stops the timer.
+void wake() {
+  uint8_t sreg = SREG;
+  cli();
+  if (!g_ticking) {
+    g_ticking = true;
+    TCNT2 = 0;
+    TIFR2 = (1 << OCF2A);  // a compare flag left from before the stop
+    TCCR2B = (1 << CS21);
+    TIMSK2 = (1 << OCIE2A);
+  }
+  SREG = sreg;
+}
+
 }  // namespace
 
 static void tick();
 
 // Interruptible so that the servo pulses and the serial port keep their timing, but never by
 // itself: its own interrupt is masked while it runs (a tick that comes due meanwhile runs
-// right after, late rather than lost, and never on top of a half-updated segment).
+// right after, late rather than lost, and never on top of a half-updated segment). When the
+// tick leaves nothing to do, the timer stops (the idle AVR then sleeps between the clock's
+// interrupts instead of waking 20,000 times a second); wake() starts it again.
 ISR(TIMER2_COMPA_vect) {
   TIMSK2 = 0;
   sei();
   tick();
   cli();
-  TIMSK2 = (1 << OCIE2A);
+  if (has_work()) {
+    TIMSK2 = (1 << OCIE2A);
+  } else {
+    TCCR2B = 0;
+    g_ticking = false;
+  }
 }
 
 static void tick() {
   PIN_LOW(PIN_STEP_Z);
   PIN_LOW(PIN_STEP_J2);
   PIN_LOW(PIN_STEP_J3);
+  g_step_mask = 0;
   const uint8_t es = read_endstops();
   const uint8_t closed_now = (uint8_t)(es & ~g_endstops_prev);
   g_endstops_prev = es;
@@ -151,6 +187,7 @@ static void tick() {
   if (rate == 0) return;
   const uint8_t mask = g_dda.tick(rate);
   const uint8_t neg = g_dda.dir_negative;
+  g_step_mask = mask;
   if (mask & 1) {
     PIN_HIGH(PIN_STEP_Z);
     g_pos[0] += (neg & 1) ? -1 : 1;
@@ -192,14 +229,30 @@ void stepper_init() {
   PIN_INPUT_PULLUP(PIN_ENDSTOP_Z);
   PIN_INPUT_PULLUP(PIN_ENDSTOP_J2);
   PIN_INPUT_PULLUP(PIN_ENDSTOP_J3);
-  // Timer2 CTC, F_CPU / 8 = 2 MHz, 100 counts = 20 kHz
+  // Timer2 CTC, F_CPU / 8 = 2 MHz, 100 counts = 20 kHz; started by wake() (the first tick
+  // reads the switches)
   TCCR2A = (1 << WGM21);
-  TCCR2B = (1 << CS21);
+  TCCR2B = 0;
   OCR2A = (uint8_t)(F_CPU / 8 / kTickHz - 1);
-  TIMSK2 = (1 << OCIE2A);
+  TIMSK2 = 0;
+  wake();
 }
 
-MotionQueue& stepper_queue() { return g_queue; }
+const MotionQueue& stepper_queue() { return g_queue; }
+
+bool stepper_push(const Segment& s) {
+  const bool ok = g_queue.push(s);
+  wake();
+  return ok;
+}
+
+void stepper_poll() {
+  uint8_t sreg = SREG;
+  cli();
+  const bool changed = !g_ticking && read_endstops() != g_endstops_prev;
+  SREG = sreg;
+  if (changed) wake();
+}
 
 void stepper_positions(int32_t out[kNumAxes]) {
   uint8_t sreg = SREG;
@@ -215,9 +268,20 @@ void stepper_set_position(uint8_t axis, int32_t value) {
   SREG = sreg;
 }
 
-void stepper_set_run(bool run) { g_run = run; }
-void stepper_request_stop() { g_stop_req = true; }
-void stepper_request_hold() { g_hold_req = true; }
+void stepper_set_run(bool run) {
+  g_run = run;
+  if (run) wake();
+}
+
+void stepper_request_stop() {
+  g_stop_req = true;
+  wake();
+}
+
+void stepper_request_hold() {
+  g_hold_req = true;
+  wake();
+}
 
 void stepper_request_resume() {
   uint8_t sreg = SREG;
@@ -225,6 +289,7 @@ void stepper_request_resume() {
   g_hold_req = false;
   g_held = false;
   SREG = sreg;
+  wake();
 }
 
 void stepper_release() {

@@ -9,6 +9,13 @@
 // ends the pulses at once and drops the queue (a hard stop: within one tick, 50 us); a hold
 // ramps the segment clock down at the motor acceleration limit and keeps the queue; resume
 // ('~') ramps it back up. An endstop that closes while it is guarded also stops everything.
+//
+// The timer runs only while there is something to do: after the tick that leaves no pulse to
+// end, no segment to run or start and no request pending, it stops (at rest the AVR then
+// sleeps between the clock's interrupts). Every call below that can give it work (a push, run,
+// stop, hold, resume) starts it again, its first tick one period later; while it is stopped,
+// stepper_poll() from the main loop watches the switches and starts it when one changes, so
+// the tick sees the change (and a guarded switch still stops everything).
 #pragma once
 
 #include <stdint.h>
@@ -28,7 +35,12 @@ enum StepperEvent : uint8_t {
 };
 
 void stepper_init();
-MotionQueue& stepper_queue();
+// The queue, to read (count, free slots); segments go in through stepper_push.
+const MotionQueue& stepper_queue();
+// Queues a segment (false if the queue is full) and starts the timer if it was stopped.
+bool stepper_push(const Segment& s);
+// Main loop: starts the timer when a switch changed while it was stopped.
+void stepper_poll();
 
 // Step counters (steps from the joint zero, as homed).
 void stepper_positions(int32_t out[kNumAxes]);
