@@ -4,6 +4,7 @@
 #include <avr/io.h>
 
 #include "board.h"
+#include "fw_config.h"
 #include "servo_math.h"
 
 namespace fw {
@@ -15,8 +16,8 @@ constexpr uint32_t kFrameUs = 20000;
 volatile uint16_t g_pulse[2] = {3000, 3000};  // 0.5 us units, read by the ISR once per frame
 int16_t g_out_cdeg[2] = {0, 0};               // angle being output (before conversion)
 int16_t g_target[2] = {0, 0};
-uint16_t g_min_us = 544;
-uint16_t g_max_us = 2400;
+uint16_t g_min_us = kDefaultServoMinUs;  // until servo_init() sets the stored settings
+uint16_t g_max_us = kDefaultServoMaxUs;
 uint32_t g_last_update_us = 0;
 uint8_t g_phase = 0;
 uint16_t g_frame_start = 0;
