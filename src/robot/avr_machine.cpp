@@ -170,15 +170,39 @@ void AvrMachine::feed_uart() {
   }
 }
 
+namespace {
+
+// One-shot cycle timer at run_until's target.
+avr_cycle_count_t stop_here(avr_t*, avr_cycle_count_t, void*) { return 0; }
+
+}  // namespace
+
 bool AvrMachine::run_until(std::uint64_t cycle) {
-  while (avr_->cycle < cycle) {
+  // A sleeping AVR costs nothing here: each avr_run of a sleeping core advances the cycle
+  // counter straight to the next cycle timer (a timer's compare or overflow, a UART byte, the
+  // profiler) instead of emulating the idle cycles. The timer at the target ends such a skip
+  // there (one cycle past), so a firmware asleep for milliseconds does not carry the emulated
+  // clock that far ahead of the caller's pacing and input.
+  if (avr_->cycle < cycle) avr_cycle_timer_register(avr_, cycle - avr_->cycle, stop_here, this);
+  bool alive = true;
+  while (alive && avr_->cycle < cycle) {
     const int state = avr_run(avr_);
-    if (state == cpu_Done || state == cpu_Crashed) return false;
+    alive = state != cpu_Done && state != cpu_Crashed;
   }
-  return true;
+  // a skip ends one cycle past the target, before simavr ran the timer: drop it
+  avr_cycle_timer_cancel(avr_, stop_here, this);
+  return alive;
 }
 
 std::uint64_t AvrMachine::cycle() const { return avr_->cycle; }
+
+std::uint64_t AvrMachine::wake_cycle() const {
+  if (avr_->state != cpu_Sleeping) return avr_->cycle;
+  // simavr keeps its cycle timers sorted, the earliest first
+  const avr_cycle_timer_slot_t* next = avr_->cycle_timers.timer;
+  if (next == nullptr) return UINT64_MAX;
+  return std::max<std::uint64_t>(next->when, avr_->cycle);
+}
 
 namespace {
 

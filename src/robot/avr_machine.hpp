@@ -51,9 +51,15 @@ class AvrMachine {
   void uart_send(std::uint8_t byte);
   std::size_t uart_pending() const { return to_avr_.size(); }
 
-  // Runs until the cycle counter reaches `cycle`; false if the firmware crashed or stopped.
+  // Runs until the cycle counter reaches `cycle` (the last instruction may end a few cycles
+  // past it); while the firmware sleeps its idle cycles are skipped, not emulated, and the
+  // skip too ends at `cycle`. False if the firmware crashed or stopped.
   bool run_until(std::uint64_t cycle);
   std::uint64_t cycle() const;
+  // While the firmware sleeps: the cycle of its next timer event (a timer's compare or
+  // overflow, a UART byte), the earliest it can wake by itself; nothing changes before then
+  // unless the caller sends a byte or drives a pin. cycle() while it runs.
+  std::uint64_t wake_cycle() const;
   std::uint32_t frequency() const { return frequency_; }
   double sim_seconds() const { return static_cast<double>(cycle()) / frequency_; }
   std::uint64_t sim_us() const { return cycle() * 1000000ULL / frequency_; }
