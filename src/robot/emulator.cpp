@@ -264,15 +264,18 @@ std::string Emulator::command(const std::string& line, int client) {
 }
 
 namespace {
-constexpr double kBootS = 0.05;  // emulated time by which the firmware has set up its pins
+constexpr double kBootS = 0.05;       // emulated time by which the firmware has set up its pins
+constexpr double kIdleWaitS = 0.002;  // longest wait for a sleeping firmware's next event
 }  // namespace
 
 Status Emulator::run(const volatile bool& stop) {
   const std::uint64_t chunk = avr_->frequency() / 5000;  // 200 us of emulated time
   const std::uint64_t wall0 = clock_us(CLOCK_MONOTONIC);
   const double speed = options_.speed;
+  // where the last wait ended: a sleeping firmware skips there (nothing happens before)
+  std::uint64_t idle_to = 0;
   while (!stop) {
-    if (!avr_->run_until(avr_->cycle() + chunk)) {
+    if (!avr_->run_until((idle_to > avr_->cycle() ? idle_to : avr_->cycle()) + chunk)) {
       return Error{1, "the firmware stopped or crashed at t = " +
                           std::to_string(avr_->sim_seconds()) + " s"};
     }
@@ -296,9 +299,34 @@ Status Emulator::run(const volatile bool& stop) {
       }
     }
     pty_.flush();
-    // wait for the wall clock (paced), handling input as it arrives; unpaced: just look
+    // wait for the wall clock (paced), handling input as it arrives; unpaced: just look.
+    // A sleeping firmware does nothing until its next timer event: wait for that (or for the
+    // next scenario step or button release) rather than for every chunk's end, then skip to
+    // it; a host byte that comes first ends the wait where the wall clock is.
     std::uint64_t due_us = 0;
-    if (speed > 0) due_us = wall0 + static_cast<std::uint64_t>(now_s / speed * 1e6);
+    std::uint64_t sync_us = 0;
+    double until_s = now_s;
+    if (speed > 0) {
+      if (now_s >= kBootS) {
+        until_s = static_cast<double>(avr_->wake_cycle()) / avr_->frequency();
+        if (until_s > now_s + kIdleWaitS) until_s = now_s + kIdleWaitS;
+        if (scenario_next_ < scenario_.size() && scenario_[scenario_next_].t_s < until_s) {
+          until_s = scenario_[scenario_next_].t_s;
+        }
+        for (const double r : release_at_s_) {
+          if (r > 0 && r < until_s) until_s = r;
+        }
+        if (until_s < now_s) until_s = now_s;
+      }
+      sync_us = wall0 + static_cast<std::uint64_t>(now_s / speed * 1e6);
+      due_us = wall0 + static_cast<std::uint64_t>(until_s / speed * 1e6);
+    }
+    const auto cycle_at = [&](std::uint64_t wall_us) {
+      const double s = static_cast<double>(wall_us - wall0) * 1e-6 * speed;
+      return static_cast<std::uint64_t>((s < until_s ? s : until_s) * avr_->frequency());
+    };
+    idle_to = 0;
+    bool host_byte = false;
     do {
       const std::uint64_t now_us = clock_us(CLOCK_MONOTONIC);
       const long wait_us = due_us > now_us ? static_cast<long>(due_us - now_us) : 0;
@@ -308,10 +336,23 @@ Status Emulator::run(const volatile bool& stop) {
       for (int fd : side_.client_fds()) fds.push_back({fd, POLLIN, 0});
       timespec ts{wait_us / 1000000, (wait_us % 1000000) * 1000};
       ppoll(fds.data(), fds.size(), &ts, nullptr);
-      if (fds[0].revents & POLLIN) from_host(pty_.read_available());
-      side_.poll([this](const std::string& l, int c) { return command(l, c); });
+      if (fds[0].revents & POLLIN) {
+        // the sleeping firmware gets the byte when the wall clock got it (a skip: nothing
+        // happens before until_s)
+        const std::uint64_t got_us = clock_us(CLOCK_MONOTONIC);
+        if (until_s > now_s && got_us > sync_us) avr_->run_until(cycle_at(got_us));
+        from_host(pty_.read_available());
+        host_byte = true;
+      }
+      // the side channel only when a client connects, sends or leaves (a system call per
+      // client less on each pass)
+      bool side_ready = false;
+      for (std::size_t i = 1; i < fds.size(); ++i) side_ready = side_ready || fds[i].revents != 0;
+      if (side_ready) side_.poll([this](const std::string& l, int c) { return command(l, c); });
       side_.publish(clock_us(CLOCK_MONOTONIC), [this] { return truth_line(); });
-    } while (!stop && clock_us(CLOCK_MONOTONIC) < due_us);
+    } while (!stop && clock_us(CLOCK_MONOTONIC) < due_us &&
+             !(host_byte && clock_us(CLOCK_MONOTONIC) >= sync_us));
+    if (!host_byte && speed > 0) idle_to = cycle_at(clock_us(CLOCK_MONOTONIC));
   }
   pty_.flush();
   return Ok{};
