@@ -86,9 +86,9 @@ Result<std::unique_ptr<Plant>> Plant::create(const RobotModel& description, cons
   p->dp_du_[2][1] = -p->coupling_ / p->spr_[2];
   p->backlash_ = {as_built[AsBuiltParam::kZBacklash], as_built[AsBuiltParam::kJ2Backlash],
                   as_built[AsBuiltParam::kJ3Backlash]};
-  p->switch_ = {options.switch_joint[0] + as_built[AsBuiltParam::kZZero],
-                options.switch_joint[1] + as_built[AsBuiltParam::kJ2Zero],
-                options.switch_joint[2] + as_built[AsBuiltParam::kJ3Zero]};
+  const auto& sw = description.endstops.closes_at;
+  p->switch_ = {sw[0] + as_built[AsBuiltParam::kZZero], sw[1] + as_built[AsBuiltParam::kJ2Zero],
+                sw[2] + as_built[AsBuiltParam::kJ3Zero]};
 
   // power-up: the rotors where the start pose puts them, the joints where the rotors drive
   const JointVector start = options.start_given ? options.start : description.home;
@@ -169,10 +169,13 @@ void Plant::update_servos(double dt_s) {
 }
 
 void Plant::update_endstops(const JointVector& q) {
+  // each switch closes beyond the end of travel that homing moves towards
   std::uint8_t m = 0;
-  if (q[0] >= switch_[0]) m |= 1;
-  if (q[1] >= switch_[1]) m |= 2;
-  if (q[2] <= switch_[2]) m |= 4;
+  for (int i = 0; i < kSteppers; ++i) {
+    const bool closed = description_.endstops.homing_dir[i] > 0 ? q[i] >= switch_[i]
+                                                                  : q[i] <= switch_[i];
+    if (closed) m = static_cast<std::uint8_t>(m | (1u << i));
+  }
   endstops_ = m;
 }
 

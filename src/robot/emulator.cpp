@@ -5,10 +5,13 @@
 #include <unistd.h>
 
 #include <chrono>
+#include <cmath>
 #include <cstdio>
 #include <ctime>
 #include <fstream>
 #include <sstream>
+
+#include <fmt/format.h>
 
 namespace scaratwin::robot {
 namespace {
@@ -100,18 +103,24 @@ Result<std::unique_ptr<Emulator>> Emulator::create(const EmulatorOptions& option
   std::unique_ptr<Emulator> e(new Emulator(options, std::move(machine).value(),
                                            std::move(pty).value(), std::move(side).value()));
   e->scenario_ = std::move(scenario);
+  if (options.plant) {
+    auto plant = plant::Plant::create(options.plant->description, options.plant->as_built,
+                                      options.plant->options);
+    if (!plant) return Error{1, "the physical world: " + plant.error().message};
+    e->plant_ = std::move(plant).value();
+  }
   e->wire_pins();
   for (const auto& s : e->scenario_) {
     // validate the commands now rather than failing in the middle of a run
     std::istringstream ls(s.command);
     std::string verb;
     ls >> verb;
-    static const char* kVerbs[] = {"press",   "release", "cut",  "lose",
-                                   "corrupt", "query",   "rate", "mark"};
+    static const char* kVerbs[] = {"press", "release", "cut",  "lose",  "corrupt",
+                                   "query", "rate",    "mark", "place", "clear"};
     if (std::find_if(std::begin(kVerbs), std::end(kVerbs),
                      [&](const char* v) { return verb == v; }) == std::end(kVerbs)) {
       return Error{1, "scenario command '" + s.command +
-                          "' is unknown: use press, release, cut, lose or corrupt"};
+                          "' is unknown: use press, release, cut, lose, corrupt, place or clear"};
     }
   }
   return e;
@@ -121,13 +130,18 @@ void Emulator::wire_pins() {
   for (int a = 0; a < kAxes; ++a) {
     avr_->watch_pin(kDir[a].port, kDir[a].bit, [this, a](bool high) { mech_.on_dir(a, high); });
     avr_->watch_pin(kStep[a].port, kStep[a].bit, [this, a](bool high) {
+      const std::int32_t before = mech_.steps()[a];
       mech_.on_step(a, high, avr_->sim_us());
+      // a pulse the belt fault swallowed (lose) does not reach the motor either
+      const std::int32_t moved = mech_.steps()[a] - before;
+      if (plant_ && moved != 0) plant_->step_pulse(a, moved > 0, avr_->sim_seconds());
       update_endstops();
     });
   }
   for (int s = 0; s < 2; ++s) {
     avr_->watch_pin(kServo[s].port, kServo[s].bit, [this, s](bool high) {
       mech_.on_servo(s, high, avr_->cycle(), avr_->frequency() / 1e6);
+      if (plant_ && !high) plant_->servo_pulse(s, mech_.servo_pulse_us(s));
     });
   }
   avr_->on_uart_output([this](std::uint8_t b) { to_host(b); });
@@ -138,7 +152,7 @@ void Emulator::wire_pins() {
 }
 
 void Emulator::update_endstops() {
-  const std::uint8_t es = mech_.endstops();
+  const std::uint8_t es = plant_ ? plant_->endstops() : mech_.endstops();
   if (es == endstops_driven_) return;
   for (int a = 0; a < kAxes; ++a) {
     const bool closed = (es >> a) & 1;
@@ -203,7 +217,38 @@ std::string Emulator::truth_line() const {
                 static_cast<unsigned long long>(mech_.last_step_us(1)),
                 static_cast<unsigned long long>(mech_.first_step_us(2)),
                 static_cast<unsigned long long>(mech_.last_step_us(2)));
-  return buf;
+  std::string line = buf;
+  if (!plant_) return line + " plant=ideal";
+  // the robot as built: the true motor positions are the rotors', and the truth adds the
+  // true joints, the true tool and the steps the motors lost
+  const auto rotor = plant_->rotor_microsteps();
+  const auto lost = plant_->lost_microsteps();
+  const JointVector q = plant_->joints();
+  const ToolPose tool = plant_->tool_pose();
+  for (int a = 0; a < kAxes; ++a) {
+    const std::string key = std::string(" ") + kAxisNames[a] + "=";
+    const std::size_t at = line.find(key);
+    const std::size_t end = line.find(' ', at + 1);
+    line.replace(at, end - at, fmt::format("{}{}", key, std::llround(rotor[a])));
+  }
+  line += fmt::format(
+      " plant=as-built d1_m={:.7f} q2_rad={:.7f} q3_rad={:.7f} q4_rad={:.7f} tool_x_m={:.7f} "
+      "tool_y_m={:.7f} tool_z_m={:.7f} tool_yaw_rad={:.7f} lost_z={} lost_j2={} lost_j3={} "
+      "held={}",
+      q[0], q[1], q[2], q[3], tool.x_m, tool.y_m, tool.z_m, tool.yaw_rad, lost[0], lost[1],
+      lost[2], plant_->held_cube());
+  return line;
+}
+
+std::string Emulator::cubes_line() const {
+  if (!plant_) return "CUBES 0";
+  const auto cubes = plant_->cubes();
+  std::string out = fmt::format("CUBES {}", cubes.size());
+  for (const auto& c : cubes) {
+    out += fmt::format(" {}:{}:{:.6f}:{:.6f}:{:.6f}", c.id, color_name(c.color), c.pos_m[0],
+                       c.pos_m[1], c.pos_m[2]);
+  }
+  return out;
 }
 
 std::string Emulator::command(const std::string& line, int client) {
@@ -212,6 +257,28 @@ std::string Emulator::command(const std::string& line, int client) {
   in >> verb;
   const double now_s = avr_->sim_seconds();
   if (verb == "query") return truth_line();
+  if (verb == "cubes") return cubes_line();
+  if (verb == "place" || verb == "clear") {
+    if (!plant_) {
+      return "ERR the ideal robot has no physical world: start the emulator with --plant "
+             "as-built";
+    }
+    if (verb == "clear") {
+      plant_->clear_cubes();
+      return "OK clear";
+    }
+    std::string colour;
+    double x = NAN, y = NAN, yaw_deg = 0.0;
+    in >> colour >> x >> y;
+    if (!(in >> yaw_deg)) yaw_deg = 0.0;
+    auto c = parse_color(colour);
+    if (!c) return "ERR place needs a colour (red, green, blue), x and y in m, yaw in deg";
+    if (!std::isfinite(x) || !std::isfinite(y)) return "ERR place needs x and y in m";
+    auto placed = plant_->place_cube(*c, x, y, yaw_deg * 3.14159265358979323846 / 180.0);
+    if (!placed) return "ERR " + placed.error().message;
+    return fmt::format("OK place {} {} {:.6f} {:.6f}", placed->id, colour, placed->pos_m[0],
+                       placed->pos_m[1]);
+  }
   if (verb == "mark") {
     mech_.mark();
     return "OK mark";
@@ -260,7 +327,7 @@ std::string Emulator::command(const std::string& line, int client) {
     return "OK " + line;
   }
   return "ERR unknown command '" + verb +
-         "': use query, rate, mark, press, release, cut, lose, corrupt";
+         "': use query, rate, mark, press, release, cut, lose, corrupt, cubes, place, clear";
 }
 
 namespace {
@@ -280,6 +347,11 @@ Status Emulator::run(const volatile bool& stop) {
                           std::to_string(avr_->sim_seconds()) + " s"};
     }
     const double now_s = avr_->sim_seconds();
+    if (plant_) {
+      // the physical world catches up with the firmware's emulated time
+      if (Status st = plant_->advance_to(now_s); !st) return st.error();
+      update_endstops();
+    }
     if (options_.duration_s > 0 && now_s >= options_.duration_s) break;
     if (now_s < kBootS) {
       // the firmware's pin set-up (pull-ups) overrides a level driven before it: a switch

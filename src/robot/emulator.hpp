@@ -12,6 +12,7 @@
 #include <array>
 #include <cstdint>
 #include <memory>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -19,6 +20,7 @@
 #include "mechanics.hpp"
 #include "pty_link.hpp"
 #include "scaratwin/core/result.hpp"
+#include "scaratwin/plant/plant.hpp"
 #include "side_channel.hpp"
 
 namespace scaratwin::robot {
@@ -32,6 +34,14 @@ struct EmulatorOptions {
   std::string scenario;     // scenario file
   std::string pty_symlink;  // optional stable name for the pty
   MechanicsConfig mechanics;
+  // The physical world behind the pins: empty = the ideal robot (STEP pulses counted, the
+  // robot exactly its description); set = the robot as built (plant.hpp).
+  struct PlantSetup {
+    RobotModel description;
+    AsBuilt as_built;
+    plant::PlantOptions options;
+  };
+  std::optional<PlantSetup> plant;
   std::uint32_t profile_cycles = 0;  // > 0: sample the firmware's program counter this often
 };
 
@@ -53,6 +63,8 @@ class Emulator {
   // Executes one side-channel / scenario command; returns the reply line.
   std::string command(const std::string& line, int client);
   std::string truth_line() const;
+  std::string cubes_line() const;  // the physical cubes: "CUBES n id:colour:x:y:z ..."
+  const plant::Plant* physical() const { return plant_.get(); }
   // The firmware CPU profile (EmulatorOptions::profile_cycles), largest share first.
   std::string profile_table() const { return avr_->profile_table(30); }
 
@@ -70,6 +82,7 @@ class Emulator {
   PtyLink pty_;
   SideChannel side_;
   Mechanics mech_;
+  std::unique_ptr<plant::Plant> plant_;
   std::uint8_t endstops_driven_ = 0xff;
   std::uint8_t buttons_ = 0;
   std::array<double, 6> release_at_s_{};  // timed presses: emulated time of the release

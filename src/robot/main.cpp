@@ -20,6 +20,7 @@
 
 #include "emulator.hpp"
 #include "scaratwin/config/robot_config.hpp"
+#include "scaratwin/core/units.hpp"
 #include "scaratwin/kinematics/motor.hpp"
 
 // libsimavr keeps a few allocations (IRQ names, notify hooks) until exit and has no call to
@@ -76,6 +77,20 @@ int main(int argc, char** argv) {
   app.add_option("--profile", profile_path,
                  "write a CPU profile of the firmware (share of cycles per function, sampled "
                  "every 61 cycles) to this file at exit");
+  std::string plant_kind = "as-built";
+  app.add_option("--plant", plant_kind,
+                 "the physical world behind the pins: as-built (stepper physics, backlash, "
+                 "tolerances, physical cubes) or ideal (STEP pulses counted, the robot exactly "
+                 "its description)")
+      ->capture_default_str()
+      ->check(CLI::IsMember({"as-built", "ideal"}));
+  double payload_kg = 0.0;
+  app.add_option("--payload", payload_kg, "a mass held at the tool, kg (as-built)")
+      ->check(CLI::Range(0.0, 2.0));
+  long long as_built_seed = -1;
+  app.add_option("--as-built-seed", as_built_seed,
+                 "seed of the as-built draw (default: [as_built] seed of the description)")
+      ->check(CLI::Range(0LL, 2147483647LL));
   bool exit_with_parent = false;
   app.add_flag("--exit-with-parent", exit_with_parent,
                "terminate when the process that started the emulator dies (tests)");
@@ -103,6 +118,23 @@ int main(int argc, char** argv) {
   opt.mechanics.servo_min_deg = model->motors.wrist.min_deg;
   opt.mechanics.servo_max_deg = model->motors.wrist.max_deg;
 
+  if (plant_kind == "as-built") {
+    robot::EmulatorOptions::PlantSetup ps;
+    ps.description = *model;
+    AsBuiltProfile profile = model->physical.as_built;
+    if (as_built_seed >= 0) profile.seed = static_cast<std::uint64_t>(as_built_seed);
+    ps.as_built = draw_as_built(profile);
+    ps.options.payload_kg = payload_kg;
+    // the power-up pose: where --start-steps put the motors, else home
+    std::array<double, 3> s{};
+    for (int i = 0; i < 3; ++i) s[i] = opt.mechanics.start_steps[i];
+    ps.options.start = motors_to_joints(*model, s, rad_to_deg(model->home[3]));
+    ps.options.start_given = true;
+    opt.plant = ps;
+  } else if (payload_kg > 0.0) {
+    std::fprintf(stderr, "scaratwin-robot: --payload needs --plant as-built\n");
+    return 2;
+  }
   if (!profile_path.empty()) opt.profile_cycles = 61;
   auto emu = robot::Emulator::create(opt);
   if (!emu) {
@@ -119,6 +151,14 @@ int main(int argc, char** argv) {
   }
   std::printf("scaratwin-robot: firmware %s on %s at 16 MHz, speed %g\n", opt.firmware.c_str(),
               opt.mcu.c_str(), opt.speed);
+  if (opt.plant) {
+    std::printf("plant: as-built (seed %llu)\n",
+                static_cast<unsigned long long>(as_built_seed >= 0
+                                                    ? static_cast<unsigned long long>(as_built_seed)
+                                                    : model->physical.as_built.seed));
+  } else {
+    std::printf("plant: ideal\n");
+  }
   std::printf("pty: %s\n", e.pty().slave_path().c_str());
   std::printf("side channel: 127.0.0.1:%u\n", static_cast<unsigned>(e.side().port()));
   std::fflush(stdout);

@@ -11,9 +11,16 @@
 // STEP pulses seen, including lost ones; last_rx_sim_us the emulated time at which the last
 // byte from the host entered the firmware's UART; span_* the emulated times of each axis's
 // first and last STEP pulse since the last `mark`, 0:0 when none.)
+// With the robot as built (--plant as-built) z/j2/j3 are the rotors' true positions and the
+// line goes on with: plant=as-built d1_m=<m> q2_rad= q3_rad= q4_rad= (true joints)
+// tool_x_m= tool_y_m= tool_z_m= tool_yaw_rad= (true tool) lost_z= lost_j2= lost_j3= (steps
+// the motors lost) held=<cube id or -1>; with --plant ideal it ends with plant=ideal.
 // Client -> emulator, one command per line, answered "OK <command>" or "ERR <reason>":
 //   query | rate <hz> | mark | press <button> [ms] | release <button> | cut <ms> |
-//   lose <z|j2|j3> <steps> | corrupt <n> [rx|tx]
+//   lose <z|j2|j3> <steps> | corrupt <n> [rx|tx] |
+//   cubes (the physical cubes: "CUBES n id:colour:x_m:y_m:z_m ...") |
+//   place <red|green|blue> <x_m> <y_m> [yaw_deg] (an operator puts a cube on the table) |
+//   clear (the operator takes every cube away)
 // Buttons: z+ z- j2+ j2- j3+ j3-. The same commands, each prefixed with an emulated time in
 // ms, make up a scenario file (--scenario).
 //

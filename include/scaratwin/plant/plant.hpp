@@ -8,7 +8,8 @@
 //  - J4 and the gripper: hobby servos with a slew rate, a dead band and a gain error; the
 //    wrist servo's horn sits on its spline with an offset. The gripper closes on a cube only
 //    if one lies between its jaws.
-//  - The endstops close where they were really glued (the joint zero offsets).
+//  - The endstops close where they were really glued: the description's `[endstops]` plus the
+//    drawn joint zero offsets.
 // Nothing here is shared with the hub or the simulator at run time; the truth it exposes
 // (true joints, tool pose, cube poses, lost steps) is a measuring instrument for tests and
 // reports, never an input of the twin.
@@ -41,9 +42,6 @@ struct PlantOptions {
   int substeps = 20;          // rotor integration steps per physics step (50 us)
   double payload_kg = 0.0;    // a mass held at the tool (tests of lost steps)
   int cubes_per_color = 4;
-  // Where the description says each endstop closes (the firmware's switch positions), in
-  // joint values: Z closes at d1 >= [0] (m), J2 at q2 >= [1], J3 at q3 <= [2] (rad).
-  std::array<double, kSteppers> switch_joint{0.1225, 2.0420352248333655, -1.3439035240356338};
   // True joint values at power-up (the description's home by default, when empty).
   bool start_given = false;
   JointVector start{};
