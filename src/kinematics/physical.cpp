@@ -13,11 +13,11 @@ const std::array<AsBuiltKey, kAsBuiltCount>& as_built_keys() {
   // to about 1 mm, endstops glued where they fit, a servo horn on a 25-tooth spline (14.4 deg
   // per tooth, set by eye), a camera on a printed arm.
   static const std::array<AsBuiltKey, kAsBuiltCount> keys{{
-      {"a2_mm", kMm, 0.8, false},
-      {"a3_mm", kMm, 0.8, false},
-      {"z_zero_mm", kMm, 0.5, false},
-      {"j2_zero_deg", kDeg, 0.6, false},
-      {"j3_zero_deg", kDeg, 0.6, false},
+      {"a2_mm", kMm, 1.0, false},
+      {"a3_mm", kMm, 1.0, false},
+      {"z_zero_mm", kMm, 1.0, false},
+      {"j2_zero_deg", kDeg, 1.0, false},
+      {"j3_zero_deg", kDeg, 1.0, false},
       {"z_lead_percent", kPercent, 0.5, false},
       {"wrist_offset_deg", kDeg, 3.0, false},
       {"wrist_gain_percent", kPercent, 3.0, false},

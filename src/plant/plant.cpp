@@ -127,6 +127,7 @@ std::array<double, kSteppers> Plant::drive_positions(const std::array<double, kS
 void Plant::step_pulse(int axis, bool forward, double t_s) {
   if (axis < 0 || axis >= kSteppers) return;
   pulses_.push_back({t_s, axis, forward ? 1 : -1});
+  wake();
 }
 
 void Plant::servo_pulse(int servo, double width_us) {
@@ -141,6 +142,9 @@ void Plant::servo_pulse(int servo, double width_us) {
                          (spec.max_deg - spec.min_deg);
   servo_target_deg_[servo] = spec.min_deg + nominal * gain;
   servo_powered_[servo] = true;
+  // a servo that will move wakes the world
+  const double dead_deg = rad_to_deg(as_built_[AsBuiltParam::kServoDeadband]);
+  if (std::abs(servo_target_deg_[servo] - servo_deg_[servo]) > 0.5 * dead_deg) wake();
 }
 
 void Plant::update_servos(double dt_s) {
@@ -172,8 +176,8 @@ void Plant::update_endstops(const JointVector& q) {
   // each switch closes beyond the end of travel that homing moves towards
   std::uint8_t m = 0;
   for (int i = 0; i < kSteppers; ++i) {
-    const bool closed = description_.endstops.homing_dir[i] > 0 ? q[i] >= switch_[i]
-                                                                  : q[i] <= switch_[i];
+    const bool closed =
+        description_.endstops.homing_dir[i] > 0 ? q[i] >= switch_[i] : q[i] <= switch_[i];
     if (closed) m = static_cast<std::uint8_t>(m | (1u << i));
   }
   endstops_ = m;
@@ -228,10 +232,41 @@ void Plant::finish_physics_step() {
   q0_ = sim_->joints();
   qd0_ = sim_->joint_velocities();
   time_s_ = step_start_s_;  // the physics clock is the reference; no drift from the sum
+  // 50 ms without motion anywhere: asleep until the next command
+  quiet_steps_ = at_rest() ? quiet_steps_ + 1 : 0;
+  if (quiet_steps_ >= 50) asleep_ = true;
+}
+
+bool Plant::at_rest() const {
+  if (!pulses_.empty()) return false;
+  for (const StepperMotor& m : motors_) {
+    if (std::abs(m.speed_rad_s()) > 1e-4) return false;
+  }
+  const double dead_deg = rad_to_deg(as_built_[AsBuiltParam::kServoDeadband]);
+  for (int s = 0; s < 2; ++s) {
+    if (servo_powered_[s] && std::abs(servo_target_deg_[s] - servo_deg_[s]) > 0.5 * dead_deg) {
+      return false;
+    }
+  }
+  // every body of the world: the arm, the fingers and the cubes
+  const JointVector v = sim_->joint_velocities();
+  for (double x : v) {
+    if (std::abs(x) > 1e-5) return false;
+  }
+  return sim_->max_speed() < 1e-5;
 }
 
 Status Plant::advance_to(double t_s) {
   const double h = options_.timestep_s / options_.substeps;
+  if (asleep_ && pulses_.empty() && sub_ == 0) {
+    // whole physics steps of nothing happening
+    const double steps = std::floor((t_s + 1e-12 - step_start_s_) / options_.timestep_s);
+    if (steps >= 1.0) {
+      step_start_s_ += steps * options_.timestep_s;
+      time_s_ = step_start_s_;
+    }
+    return Ok{};
+  }
   while (time_s_ + h <= t_s + 1e-12) {
     substep(h);
     if (++sub_ == options_.substeps) finish_physics_step();
@@ -240,10 +275,12 @@ Status Plant::advance_to(double t_s) {
 }
 
 Result<sim::CubeState> Plant::place_cube(CubeColor color, double x_m, double y_m, double yaw_rad) {
+  wake();
   return sim_->spawn_cube(color, x_m, y_m, yaw_rad);
 }
 
 void Plant::clear_cubes() {
+  wake();
   sim_->reset_scene();
   grip_closed_ = false;
 }

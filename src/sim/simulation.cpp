@@ -447,6 +447,12 @@ void Simulation::add_payload(double mass_kg) {
   // directly at every step)
 }
 
+double Simulation::max_speed() const {
+  double m = 0.0;
+  for (int i = 0; i < m_->nv; ++i) m = std::max(m, std::abs(d_->qvel[i]));
+  return m;
+}
+
 JointVector Simulation::joint_velocities() const {
   JointVector v{};
   for (int j = 0; j < kNumJoints; ++j) v[j] = d_->qvel[ids_.dof[j]];

@@ -91,6 +91,8 @@ class Plant {
   const RobotModel& built() const { return built_; }
   const AsBuilt& as_built() const { return as_built_; }
   const sim::Simulation& world() const { return *sim_; }
+  // True while the plant skips its physics because nothing moves (for benchmarks and tests).
+  bool resting() const { return asleep_; }
 
  private:
   Plant() = default;
@@ -125,6 +127,15 @@ class Plant {
   JointVector q0_{}, qd0_{};   // joints at the start of the physics step
   std::array<double, kSteppers> force_sum_{};
   std::uint8_t endstops_ = 0;
+  // at rest: nothing moves until a pulse or a servo command, so whole physics steps are
+  // skipped (the state is static; skipping changes no result)
+  int quiet_steps_ = 0;
+  bool asleep_ = false;
+  void wake() {
+    asleep_ = false;
+    quiet_steps_ = 0;
+  }
+  bool at_rest() const;
 
   // servos: 0 gripper, 1 wrist; targets and outputs in servo degrees
   std::array<double, 2> servo_target_deg_{};

@@ -158,6 +158,8 @@ class Simulation {
   // Adds a point mass at the tool (a payload), kg.
   void add_payload(double mass_kg);
   JointVector joint_velocities() const;
+  // The largest speed of any degree of freedom (m/s or rad/s): zero when all is at rest.
+  double max_speed() const;
 
   // --- gripper ------------------------------------------------------------------------------
   // Closes the fingers and holds the cube between them if there is one.
