@@ -86,8 +86,9 @@ Robot::Robot(const std::vector<std::string>& args) {
   posix_spawn_file_actions_init(&fa);
   posix_spawn_file_actions_adddup2(&fa, out[1], 1);
   posix_spawn_file_actions_addclose(&fa, out[0]);
-  std::vector<std::string> argv_s{SCARATWIN_ROBOT_EXE, "--firmware", SCARATWIN_FIRMWARE_ELF,
-                                  "--exit-with-parent"};
+  // the exact robot: these tests check the firmware's counts against the pins step for step
+  std::vector<std::string> argv_s{SCARATWIN_ROBOT_EXE,  "--firmware", SCARATWIN_FIRMWARE_ELF,
+                                  "--exit-with-parent", "--plant",    "ideal"};
   argv_s.insert(argv_s.end(), args.begin(), args.end());
   std::vector<char*> argv;
   for (auto& s : argv_s) argv.push_back(s.data());
