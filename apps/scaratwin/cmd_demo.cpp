@@ -16,6 +16,8 @@
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
+#include <fstream>
+#include <map>
 #include <optional>
 #include <random>
 #include <thread>
@@ -23,7 +25,10 @@
 
 #include <fmt/format.h>
 
+#include <nlohmann/json.hpp>
+
 #include "commands.hpp"
+#include "emulator_side.hpp"
 #include "scaratwin/core/units.hpp"
 #include "scaratwin/hub/analysis.hpp"
 #include "scaratwin/hub/hub.hpp"
@@ -44,60 +49,6 @@ struct DemoArgs {
   double robot_speed = 1.0;
   unsigned seed = 7;
   double mirror_s = 6.0;
-};
-
-// The emulated robot's jog buttons, pressed through the emulator's side channel (a line-based
-// TCP service on 127.0.0.1, docs/firmware.md): the operator at the robot of the paper's
-// mirror function.
-class EmulatorButtons {
- public:
-  static Result<EmulatorButtons> connect(std::uint16_t port) {
-    EmulatorButtons b;
-    b.fd_ = ::socket(AF_INET, SOCK_STREAM | SOCK_CLOEXEC, 0);
-    sockaddr_in addr{};
-    addr.sin_family = AF_INET;
-    addr.sin_port = htons(port);
-    addr.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
-    if (b.fd_ < 0 || ::connect(b.fd_, reinterpret_cast<sockaddr*>(&addr), sizeof addr) != 0) {
-      return Error{
-          97, fmt::format("emulator side channel 127.0.0.1:{}: {}", port, std::strerror(errno))};
-    }
-    if (Status s = b.command("rate 0"); !s) return s.error();  // no truth lines, replies only
-    return b;
-  }
-  EmulatorButtons(EmulatorButtons&& o) noexcept : fd_(std::exchange(o.fd_, -1)) {}
-  EmulatorButtons& operator=(EmulatorButtons&&) = delete;
-  ~EmulatorButtons() {
-    if (fd_ >= 0) ::close(fd_);
-  }
-  // Holds `button` ("j2+", "z-", ...) for `ms` of the robot's time.
-  Status press(const std::string& button, int ms) {
-    return command(fmt::format("press {} {}", button, ms));
-  }
-
- private:
-  EmulatorButtons() = default;
-  Status command(const std::string& line) {
-    const std::string out = line + "\n";
-    if (::send(fd_, out.data(), out.size(), MSG_NOSIGNAL) != static_cast<ssize_t>(out.size())) {
-      return Error{97, "emulator side channel: send failed"};
-    }
-    std::string reply;
-    char c = 0;
-    while (reply.size() < 512) {
-      pollfd p{fd_, POLLIN, 0};
-      if (::poll(&p, 1, 2000) != 1 || ::recv(fd_, &c, 1, 0) != 1) break;
-      if (c == '\n') {
-        if (reply.rfind("OK", 0) == 0) return Ok{};
-        if (reply.rfind("ERR", 0) == 0) return Error{97, "emulator: " + reply};
-        reply.clear();  // a TR line sent before `rate 0` took effect
-        continue;
-      }
-      reply.push_back(c);
-    }
-    return Error{97, "emulator side channel: no reply to '" + line + "'"};
-  }
-  int fd_ = -1;
 };
 
 std::atomic<bool> g_interrupted{false};
@@ -175,13 +126,73 @@ Status spawn_all(Hub& hub, const std::vector<SortItem>& items) {
 
 struct DemoOutcome {
   int in_trays_prediction = 0;
-  int in_trays_replay = 0;
+  int in_trays_replay = 0;  // virtual: the simulator mirroring the robot
   std::uint64_t lost_frames = 0;
   double virt_phys_mm = 0.0;
+  // against the physical truth (emulated robot only)
+  std::vector<double> control_error_mm;  // target -> true tool, per control target
+  int physical_in_trays = -1;            // where the physical cubes ended up
+  ToolErrorStats virt_phys_along;        // virtual -> true tool along every motion
+  std::optional<std::array<long long, 3>> steps_lost_truth;
+  std::optional<std::array<int, 3>> steps_lost_homing;
+  LatencyFigures latency;
 };
 
+// The paper's three control experiments: the end-effector coordinates its physical robot
+// reached (section 6), used here as the virtual targets.
+constexpr std::array<std::array<double, 2>, 3> kControlTargets{
+    {{0.2071, 0.0662}, {0.2422, -0.0421}, {0.1952, 0.0076}}};
+
+// The sorting succeeded: on the physical table when it can be seen (the emulated robot's
+// truth), else in the virtual scene mirroring the robot.
+bool physical_ok(const DemoOutcome& o, std::size_t cubes) {
+  const int n = o.physical_in_trays >= 0 ? o.physical_in_trays : o.in_trays_replay;
+  return n == static_cast<int>(cubes);
+}
+
+// Measuring instruments of the emulated robot (none with a real board).
+struct Instruments {
+  EmulatorSide* side = nullptr;
+  TruthRecorder* truth = nullptr;
+};
+
+// Virtual -> physical tool along the motions of `run` between two monotonic times: the
+// robot's reports (at its own clock) and the truth (at the same, emulated, clock).
+ToolErrorStats virtual_vs_truth(TwinDb& db, const RobotModel& model, std::int64_t run,
+                                const TruthRecorder& truth, std::uint64_t from_us,
+                                std::uint64_t to_us, std::vector<double>* distances) {
+  auto phys = db.samples(run, SampleSource::kPhysical);
+  auto lat = db.latencies(run);
+  if (!phys || !lat) return {};
+  std::map<std::int64_t, std::int64_t> device_us;  // seq -> device clock
+  for (const LatencyRecord& l : *lat) device_us[l.seq] = l.device_t_us;
+  std::vector<TimedJoints> reports;
+  for (const JointRecord& r : *phys) {
+    auto it = device_us.find(r.seq);
+    if (it != device_us.end()) reports.push_back({static_cast<double>(it->second) / 1e6, r.q});
+  }
+  std::sort(reports.begin(), reports.end(),
+            [](const TimedJoints& x, const TimedJoints& y) { return x.t_s < y.t_s; });
+  std::vector<ToolTruth> tt;
+  for (const TruthSample& t : truth.between(from_us, to_us)) {
+    if (t.as_built)
+      tt.push_back({static_cast<double>(t.sim_us) / 1e6, {t.tool[0], t.tool[1], t.tool[2]}});
+  }
+  const ToolErrorStats st = tool_error_vs_truth(model, reports, tt);
+  if (distances != nullptr) {
+    // keep each sample's distance for the session's figures
+    for (const ToolTruth& one : tt) {
+      const ToolErrorStats s1 = tool_error_vs_truth(model, reports, {one});
+      if (s1.count == 1) distances->push_back(s1.max_m);
+    }
+  }
+  return st;
+}
+
 Result<DemoOutcome> run_phases(Hub& hub, TwinDb& db, const DemoArgs& a, std::int64_t demo,
-                               EmulatorButtons* buttons) {
+                               const Instruments& inst) {
+  EmulatorSide* buttons = inst.side;
+  std::vector<double> along_m;  // virtual -> true tool distances of every motion
   const RobotModel& model = hub.model();
   DemoOutcome out;
   constexpr int kSteps = 5;
@@ -230,6 +241,7 @@ Result<DemoOutcome> run_phases(Hub& hub, TwinDb& db, const DemoArgs& a, std::int
     if (lat) {
       // one state report on the wire: about 55 bytes at 115200 baud.
       const LatencyFigures lf = latency_figures(*lat, 55.0 * 10.0 / 115200.0);
+      out.latency = lf;
       hub.record_metric(metric::kFrames, static_cast<double>(lf.device_to_sim_ms.count), "frames");
       hub.record_metric(metric::kLatencyMeanMs, lf.device_to_sim_ms.mean, "ms");
       hub.record_metric(metric::kLatencyP99Ms, lf.device_to_sim_ms.p99, "ms");
@@ -245,36 +257,59 @@ Result<DemoOutcome> run_phases(Hub& hub, TwinDb& db, const DemoArgs& a, std::int
     (void)hub.end_run(true);
   }
 
-  // 3. control: a cube spawned in the virtual scene is the target of the physical robot.
-  step(3, kSteps, "digital control: spawn a cube, move the physical robot to it");
+  // 3. control: cubes spawned in the virtual scene are the targets of the physical robot, at
+  // the paper's three control experiments.
+  step(3, kSteps, "digital control: spawn a cube, move the physical robot to it (three targets)");
   {
-    auto run = hub.begin_run("control", "to a spawned cube", demo);
+    auto run = hub.begin_run("control", "to three spawned cubes", demo);
     if (!run) return run.error();
     if (Status s = hub.set_twin_phase(protocol::TwinPhase::kControl); !s) return s.error();
     Ticker t(hub, "control");
-    if (Status s = hub.reset_scene(); !s) return s.error();
-    auto id = hub.spawn_cube(CubeColor::kRed, 0.20, 0.05);
-    if (!id) return id.error();
-    std::this_thread::sleep_for(300ms);
-    auto objs = hub.objects();
-    if (!objs || objs->empty()) return Error{94, "control: the spawned cube is not in the scene"};
-    const protocol::ObjectPose cube = objs->front();
-    auto f = move_to_position(hub, cube.x_m, cube.y_m, model.scene.grasp_z_m + 0.005);
-    if (!f) return f.error();
-    hub.record_metric(metric::kToolErrTargetPhysMm, m_to_mm(f->target_physical_m), "mm");
-    hub.record_metric(metric::kToolErrTargetVirtMm, m_to_mm(f->target_virtual_m), "mm");
-    hub.record_metric(metric::kToolErrVirtPhysMm, m_to_mm(f->virtual_physical_m), "mm");
-    out.virt_phys_mm = m_to_mm(f->virtual_physical_m);
-    fmt::print(
-        "    control: {} points; tool error target->physical {:.3f} mm, "
-        "target->virtual {:.3f} mm, virtual->physical {:.3f} mm (paper: 2.01-3.83 mm)\n",
-        f->points, m_to_mm(f->target_physical_m), m_to_mm(f->target_virtual_m),
-        m_to_mm(f->virtual_physical_m));
-    // lift clear of the table before the next task.
-    auto up = move_to_position(hub, cube.x_m, cube.y_m,
-                               model.scene.grasp_z_m + model.scene.approach_height_m,
-                               f->physical.yaw_rad);
-    if (!up) return up.error();
+    const std::uint64_t from_us = monotonic_us();
+    double worst_virt_phys_mm = 0.0;
+    for (std::size_t k = 0; k < kControlTargets.size(); ++k) {
+      if (Status s = hub.reset_scene(); !s) return s.error();
+      auto id = hub.spawn_cube(CubeColor::kRed, kControlTargets[k][0], kControlTargets[k][1]);
+      if (!id) return id.error();
+      std::this_thread::sleep_for(300ms);
+      auto objs = hub.objects();
+      if (!objs || objs->empty()) return Error{94, "control: the spawned cube is not in the scene"};
+      const protocol::ObjectPose cube = objs->front();
+      auto f = move_to_position(hub, cube.x_m, cube.y_m, model.scene.grasp_z_m + 0.005);
+      if (!f) return f.error();
+      hub.record_metric(metric::kToolErrTargetPhysMm, m_to_mm(f->target_physical_m), "mm");
+      hub.record_metric(metric::kToolErrTargetVirtMm, m_to_mm(f->target_virtual_m), "mm");
+      hub.record_metric(metric::kToolErrVirtPhysMm, m_to_mm(f->virtual_physical_m), "mm");
+      worst_virt_phys_mm = std::max(worst_virt_phys_mm, m_to_mm(f->virtual_physical_m));
+      std::string truth_text;
+      if (inst.side != nullptr) {
+        std::this_thread::sleep_for(200ms);  // let the arm settle on its belts
+        auto tr = inst.side->query();
+        if (tr && tr->as_built) {
+          const double e = std::hypot(tr->tool[0] - f->target.x_m, tr->tool[1] - f->target.y_m,
+                                      tr->tool[2] - f->target.z_m);
+          out.control_error_mm.push_back(m_to_mm(e));
+          hub.record_metric("control_error_target_true_mm", m_to_mm(e), "mm");
+          truth_text = fmt::format(", target->true tool {:.2f} mm", m_to_mm(e));
+        }
+      }
+      fmt::print(
+          "    control {}: target ({:.1f}, {:.1f}) mm, {} points; target->reported {:.3f} mm, "
+          "target->virtual {:.3f} mm{} (paper: {})\n",
+          k + 1, m_to_mm(f->target.x_m), m_to_mm(f->target.y_m), f->points,
+          m_to_mm(f->target_physical_m), m_to_mm(f->target_virtual_m), truth_text,
+          std::array<const char*, 3>{"2.01 mm", "3.83 mm", "2.94 mm"}[k]);
+      // lift clear of the table before the next target.
+      auto up = move_to_position(hub, cube.x_m, cube.y_m,
+                                 model.scene.grasp_z_m + model.scene.approach_height_m,
+                                 f->physical.yaw_rad);
+      if (!up) return up.error();
+    }
+    out.virt_phys_mm = worst_virt_phys_mm;
+    if (inst.truth != nullptr) {
+      (void)db.flush();
+      (void)virtual_vs_truth(db, model, *run, *inst.truth, from_us, monotonic_us(), &along_m);
+    }
     (void)hub.end_run(true);
   }
 
@@ -294,6 +329,13 @@ Result<DemoOutcome> run_phases(Hub& hub, TwinDb& db, const DemoArgs& a, std::int
     if (Status s = hub.reset_scene(); !s) return s.error();
     if (Status s = hub.sim_mode(protocol::SimMode::kSimulate); !s) return s.error();
     if (Status s = spawn_all(hub, layout); !s) return s.error();
+    if (inst.side != nullptr) {
+      // the operator puts the physical cubes where the layout says
+      if (Status s = inst.side->clear(); !s) return s.error();
+      for (const SortItem& it : layout) {
+        if (Status s = inst.side->place(it.color, it.x_m, it.y_m); !s) return s.error();
+      }
+    }
     for (const SortItem& it : layout) {
       fmt::print("    spawned: {} cube at ({:.1f}, {:.1f}) mm\n", color_name(it.color),
                  m_to_mm(it.x_m), m_to_mm(it.y_m));
@@ -341,8 +383,10 @@ Result<DemoOutcome> run_phases(Hub& hub, TwinDb& db, const DemoArgs& a, std::int
     if (Status s = spawn_all(hub, layout); !s) return s.error();
     const MirrorCounters before = hub.mirror_counters();
     hub.set_mirror(true);
+    const std::uint64_t replay_from_us = monotonic_us();
     auto n = hub.run_trajectory(plan.trajectory);
     if (!n) return n.error();
+    const std::uint64_t replay_to_us = monotonic_us();
     std::this_thread::sleep_for(700ms);
     const MirrorCounters after = hub.mirror_counters();
     out.lost_frames += after.lost - before.lost;
@@ -350,6 +394,24 @@ Result<DemoOutcome> run_phases(Hub& hub, TwinDb& db, const DemoArgs& a, std::int
     if (!objs) return objs.error();
     out.in_trays_replay = cubes_in_trays(model, *objs);
     hub.record_metric(metric::kCubesInTray, out.in_trays_replay, "cubes");
+    if (inst.side != nullptr) {
+      auto physical = inst.side->cubes();
+      if (physical && !physical->empty()) {
+        out.physical_in_trays = cubes_in_trays(model, *physical);
+        hub.record_metric("physical_cubes_in_trays", out.physical_in_trays, "cubes");
+      }
+    }
+    if (inst.truth != nullptr) {
+      (void)db.flush();
+      const ToolErrorStats st =
+          virtual_vs_truth(db, model, *run, *inst.truth, replay_from_us, replay_to_us, &along_m);
+      if (st.count > 0) {
+        fmt::print(
+            "    replay: virtual -> true tool mean {:.2f} mm, p95 {:.2f} mm, max {:.2f} mm "
+            "({} samples)\n",
+            m_to_mm(st.mean_m), m_to_mm(st.p95_m), m_to_mm(st.max_m), st.count);
+      }
+    }
     hub.record_metric(metric::kDesyncAlarms, hub.desync_alarms(), "alarms");
     hub.record_metric(metric::kOffPlanMaxMm, m_to_mm(hub.off_plan_worst_m()), "mm");
     hub.record_metric(metric::kReplayLostFrames, static_cast<double>(after.lost - before.lost),
@@ -369,10 +431,19 @@ Result<DemoOutcome> run_phases(Hub& hub, TwinDb& db, const DemoArgs& a, std::int
           m_to_mm(d.tool_max_m), m_to_mm(d.tool_rms_m), m_to_mm(d.tool_final_m));
     }
     fmt::print(
-        "    replay: {} of {} cubes in their trays, {} desync alarms (robot at most {:.2f} mm off "
-        "the planned path)\n",
-        out.in_trays_replay, layout.size(), hub.desync_alarms(), m_to_mm(hub.off_plan_worst_m()));
-    (void)hub.end_run(out.in_trays_replay == static_cast<int>(layout.size()));
+        "    replay: {} of {} cubes in their trays in the virtual scene{}, {} desync alarms "
+        "(robot at most {:.2f} mm off the planned path)\n",
+        out.in_trays_replay, layout.size(),
+        out.physical_in_trays >= 0
+            ? fmt::format(", {} of {} on the physical table", out.physical_in_trays, layout.size())
+            : std::string(),
+        hub.desync_alarms(), m_to_mm(hub.off_plan_worst_m()));
+    (void)hub.end_run(physical_ok(out, layout.size()));
+  }
+  // the steps the motors really lost, before homing again hides them
+  if (inst.side != nullptr) {
+    auto tr = inst.side->query();
+    if (tr && tr->as_built) out.steps_lost_truth = tr->lost;
   }
   // homing again: the robot has no encoders, but its switches show the steps its motors lost
   {
@@ -386,6 +457,7 @@ Result<DemoOutcome> run_phases(Hub& hub, TwinDb& db, const DemoArgs& a, std::int
       const int lost = std::abs(hc.offset_steps[0]) + std::abs(hc.offset_steps[1]) +
                        std::abs(hc.offset_steps[2]);
       hub.record_metric(metric::kLostSteps, lost, "steps");
+      out.steps_lost_homing = hc.offset_steps;
       fmt::print(
           "    homing again: the switches found the counts off by Z {}, J2 {}, J3 {} steps "
           "(tool {:.2f} mm), {} desync alarms in all\n",
@@ -395,7 +467,54 @@ Result<DemoOutcome> run_phases(Hub& hub, TwinDb& db, const DemoArgs& a, std::int
     (void)hub.end_run(s.ok() && hc.measured);
     if (!s) return s.error();
   }
+  if (!along_m.empty()) {
+    const Stats st = summarize(along_m);
+    out.virt_phys_along.count = along_m.size();
+    out.virt_phys_along.mean_m = st.mean;
+    std::sort(along_m.begin(), along_m.end());
+    out.virt_phys_along.p95_m =
+        along_m[std::max<std::size_t>(
+                    static_cast<std::size_t>(std::ceil(0.95 * static_cast<double>(along_m.size()))),
+                    1) -
+                1];
+    out.virt_phys_along.max_m = along_m.back();
+  }
   return out;
+}
+
+// Writes every figure of the session to results.json (keys: docs/results.md).
+Status write_results(const std::filesystem::path& path, const std::string& plant,
+                     const DemoOutcome& o) {
+  using nlohmann::json;
+  json j;
+  j["plant"] = plant;
+  j["control_error_target_physical_mm"] = o.control_error_mm;
+  j["virtual_vs_physical_tool_mm"] = o.virt_phys_along.count == 0
+                                         ? json(nullptr)
+                                         : json{{"mean", m_to_mm(o.virt_phys_along.mean_m)},
+                                                {"p95", m_to_mm(o.virt_phys_along.p95_m)},
+                                                {"max", m_to_mm(o.virt_phys_along.max_m)},
+                                                {"samples", o.virt_phys_along.count}};
+  j["physical_cubes_in_trays"] =
+      o.physical_in_trays >= 0 ? json(o.physical_in_trays) : json(nullptr);
+  j["virtual_cubes_in_trays"] = o.in_trays_replay;
+  j["prediction_cubes_in_trays"] = o.in_trays_prediction;
+  j["steps_lost"] = o.steps_lost_truth ? json{{"z", (*o.steps_lost_truth)[0]},
+                                              {"j2", (*o.steps_lost_truth)[1]},
+                                              {"j3", (*o.steps_lost_truth)[2]}}
+                                       : json(nullptr);
+  j["steps_lost_homing"] = o.steps_lost_homing ? json{{"z", (*o.steps_lost_homing)[0]},
+                                                      {"j2", (*o.steps_lost_homing)[1]},
+                                                      {"j3", (*o.steps_lost_homing)[2]}}
+                                               : json(nullptr);
+  j["mirror_latency_ms"] = {{"mean", o.latency.device_to_sim_ms.mean},
+                            {"p50", o.latency.device_to_sim_ms.p50},
+                            {"p99", o.latency.device_to_sim_ms.p99}};
+  j["mirror_lost_frames"] = o.lost_frames;
+  std::ofstream f(path);
+  f << j.dump(2) << "\n";
+  if (!f) return Error{1, "cannot write " + path.string()};
+  return Ok{};
 }
 
 int run_demo(const CommonOptions& common, const DemoArgs& a) {
@@ -438,7 +557,8 @@ int run_demo(const CommonOptions& common, const DemoArgs& a) {
   // the physical robot: a real board or our firmware in the emulator.
   std::unique_ptr<ChildProcess> robot;
   std::string device = a.serial;
-  std::uint16_t side_port = 0;  // the emulator's side channel (its buttons)
+  std::uint16_t side_port = 0;  // the emulator's side channel (its buttons, its truth)
+  std::string plant = "real";   // what the physical robot is: real, as-built or ideal
   if (device.empty()) {
     std::vector<std::string> robot_args{"--speed", fmt::format("{}", a.robot_speed)};
     if (!common.config_path.empty()) {
@@ -457,6 +577,10 @@ int run_demo(const CommonOptions& common, const DemoArgs& a) {
       return kExitFailure;
     }
     device = pty->substr(pty->find("pty: ") + 5);
+    if (auto pl = robot->wait_for_line("plant: ", 1s); pl) {
+      plant = pl->substr(pl->find("plant: ") + 7);
+      plant = plant.substr(0, plant.find(' '));
+    }
     fmt::print("physical robot: firmware in the AVR emulator on {}\n", device);
     auto side = robot->wait_for_line("side channel: ", 5s);
     if (!side) {
@@ -486,19 +610,38 @@ int run_demo(const CommonOptions& common, const DemoArgs& a) {
     std::fprintf(stderr, "scaratwin demo: %s\n", demo.error().message.c_str());
     return kExitFailure;
   }
-  std::optional<EmulatorButtons> buttons;
+  std::optional<EmulatorSide> side;
+  std::unique_ptr<TruthRecorder> truth;
   if (side_port != 0) {
-    auto b = EmulatorButtons::connect(side_port);
+    auto b = EmulatorSide::connect(side_port);
     if (!b) {
       std::fprintf(stderr, "scaratwin demo: %s\n", b.error().message.c_str());
       return kExitFailure;
     }
-    buttons.emplace(std::move(*b));
+    side.emplace(std::move(*b));
+    if (plant == "as-built") {
+      // the measuring instrument: the truth at 200 Hz, read only for the figures
+      auto t = TruthRecorder::start(side_port, 200.0);
+      if (!t) {
+        std::fprintf(stderr, "scaratwin demo: %s\n", t.error().message.c_str());
+        return kExitFailure;
+      }
+      truth = std::move(*t);
+    }
   }
+  fmt::print("physical robot: {}\n", plant == "real" ? "a real board" : "emulated, plant " + plant);
   const auto t0 = std::chrono::steady_clock::now();
-  auto outcome = run_phases(**hub, **db, a, *demo, buttons ? &*buttons : nullptr);
+  const Instruments inst{side ? &*side : nullptr, truth.get()};
+  auto outcome = run_phases(**hub, **db, a, *demo, inst);
   const double dur = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-  const bool ok = outcome && outcome->in_trays_replay == kNumColors;
+  const bool ok = outcome && physical_ok(*outcome, kNumColors);
+  if (outcome) {
+    if (Status s = write_results(out / "results.json", plant, *outcome); !s) {
+      std::fprintf(stderr, "scaratwin demo: %s\n", s.error().message.c_str());
+    } else {
+      fmt::print("results: {}\n", (out / "results.json").string());
+    }
+  }
   (void)(*db)->end_run(*demo, ok ? "ok" : "failed", dur);
   if (!outcome) std::fprintf(stderr, "scaratwin demo: %s\n", outcome.error().message.c_str());
 
@@ -518,8 +661,11 @@ int run_demo(const CommonOptions& common, const DemoArgs& a) {
   fmt::print("database: {} (run {}; `scaratwin report {} --db {}`), CSV in {}\n",
              (out / "twin.db").string(), *demo, *demo, (out / "twin.db").string(),
              (out / "csv").string());
-  fmt::print("demo {} in {:.0f} s: {} of 3 cubes in their trays\n", ok ? "passed" : "FAILED", dur,
-             outcome ? outcome->in_trays_replay : 0);
+  fmt::print("demo {} in {:.0f} s: {} of 3 cubes in their trays{}\n", ok ? "passed" : "FAILED", dur,
+             outcome ? (outcome->physical_in_trays >= 0 ? outcome->physical_in_trays
+                                                        : outcome->in_trays_replay)
+                     : 0,
+             outcome && outcome->physical_in_trays >= 0 ? " (the physical cubes)" : "");
   std::fflush(stdout);
   if (a.keep_open) {
     fmt::print("--keep-open: the simulator and its UI keep running; Ctrl-C to stop\n");

@@ -285,4 +285,35 @@ bool DesyncMonitor::check(double deviation_m) {
   return true;
 }
 
+ToolErrorStats tool_error_vs_truth(const RobotModel& model, const std::vector<TimedJoints>& reports,
+                                   const std::vector<ToolTruth>& truth, double max_gap_s) {
+  std::vector<double> d;
+  std::size_t k = 0;
+  for (const ToolTruth& tt : truth) {
+    while (k + 1 < reports.size() && reports[k + 1].t_s < tt.t_s) ++k;
+    if (k + 1 >= reports.size() || reports[k].t_s > tt.t_s) continue;
+    const TimedJoints& a = reports[k];
+    const TimedJoints& b = reports[k + 1];
+    const double gap = b.t_s - a.t_s;
+    if (!(gap > 0.0) || gap > max_gap_s) continue;
+    const double w = (tt.t_s - a.t_s) / gap;
+    JointVector q{};
+    for (int j = 0; j < kNumJoints; ++j) q[j] = a.q[j] + w * (b.q[j] - a.q[j]);
+    const ToolPose v = forward(model, q);
+    d.push_back(std::hypot(v.x_m - tt.p_m[0], v.y_m - tt.p_m[1], v.z_m - tt.p_m[2]));
+  }
+  ToolErrorStats s;
+  s.count = d.size();
+  if (d.empty()) return s;
+  double sum = 0.0;
+  for (double x : d) sum += x;
+  s.mean_m = sum / static_cast<double>(d.size());
+  std::sort(d.begin(), d.end());
+  s.max_m = d.back();
+  // nearest rank
+  const auto rank = static_cast<std::size_t>(std::ceil(0.95 * static_cast<double>(d.size())));
+  s.p95_m = d[std::max<std::size_t>(rank, 1) - 1];
+  return s;
+}
+
 }  // namespace scaratwin

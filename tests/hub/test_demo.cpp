@@ -16,6 +16,8 @@
 #include <fmt/format.h>
 #include <gtest/gtest.h>
 
+#include <nlohmann/json.hpp>
+
 #include "scaratwin/config/robot_config.hpp"
 #include "scaratwin/core/units.hpp"
 #include "scaratwin/hub/hub.hpp"
@@ -23,6 +25,7 @@
 #include "scaratwin/hub/report.hpp"
 #include "scaratwin/hub/twin_db.hpp"
 #include "scaratwin/kinematics/kinematics.hpp"
+#include "scaratwin/plant/plant.hpp"
 
 namespace scaratwin {
 namespace {
@@ -167,6 +170,66 @@ TEST(Demo, SortsEveryCubeAndRecordsTheTwin) {
   const fs::path replay_csv = out / "csv" / fmt::format("{}-replay", replay) / "samples.csv";
   ASSERT_TRUE(fs::exists(replay_csv)) << replay_csv;
   EXPECT_GT(fs::file_size(replay_csv), 10000u);
+
+  // every figure in results.json, measured against the physical truth of the robot as built
+  std::ifstream rf(out / "results.json");
+  ASSERT_TRUE(rf) << "no results.json";
+  const nlohmann::json r = nlohmann::json::parse(rf);
+  EXPECT_EQ(r.at("plant"), "as-built");
+  EXPECT_EQ(r.at("physical_cubes_in_trays"), 3);
+  EXPECT_EQ(r.at("virtual_cubes_in_trays"), 3);
+  EXPECT_EQ(r.at("mirror_lost_frames"), 0);
+  EXPECT_GT(r.at("mirror_latency_ms").at("p99").get<double>(), 0.0);
+  for (const char* axis : {"z", "j2", "j3"}) {
+    // nothing lost in the demo, and homing again agrees with the truth to within one step
+    EXPECT_EQ(r.at("steps_lost").at(axis), 0) << axis;
+    EXPECT_LE(std::abs(r.at("steps_lost_homing").at(axis).get<int>()), 1) << axis;
+  }
+  const auto along = r.at("virtual_vs_physical_tool_mm");
+  EXPECT_GT(along.at("samples").get<int>(), 5000);
+  EXPECT_LE(along.at("mean").get<double>(), along.at("p95").get<double>());
+  EXPECT_LE(along.at("p95").get<double>(), along.at("max").get<double>());
+  // The control errors against an oracle outside the plant: the description's own default
+  // tolerance draw (seed 1) applied to the kinematics. The firmware holds the IK joints of
+  // each target (either elbow); after homing each joint is off by its switch's mounting error,
+  // the Z scale by the lead error, and the arm has the drawn link lengths and jaw offset.
+  auto model = load_robot_config(SCARATWIN_CONFIG_FILE);
+  ASSERT_TRUE(model.ok());
+  const AsBuilt a = draw_as_built(model->physical.as_built);
+  const RobotModel built = plant::as_built_robot(*model, a);
+  const double targets[3][2] = {{0.2071, 0.0662}, {0.2422, -0.0421}, {0.1952, 0.0076}};
+  const auto errors = r.at("control_error_target_physical_mm");
+  ASSERT_EQ(errors.size(), 3u);
+  for (int k = 0; k < 3; ++k) {
+    ToolPose target{targets[k][0], targets[k][1], model->scene.grasp_z_m + 0.005, 0.0};
+    // the heading the hub takes: the first reachable of 0, +15, -15, +30, ... deg
+    Result<IkSolutions> all = Error{1, "unreachable"};
+    for (int h = 0; h < 24 && !all.ok(); ++h) {
+      target.yaw_rad = wrap_angle((h % 2 ? -1 : 1) * ((h + 1) / 2) * deg_to_rad(15));
+      all = inverse_all(*model, target, model->home);
+    }
+    ASSERT_TRUE(all.ok()) << all.error().message;
+    double best = 1e9;
+    for (int b = 0; b < all->count; ++b) {
+      const JointVector& q = all->solutions[b];
+      const double z_sw = model->endstops.closes_at[0];
+      JointVector t = q;
+      t[0] = z_sw + a[AsBuiltParam::kZZero] + (q[0] - z_sw) * (1.0 + a[AsBuiltParam::kZLead]);
+      t[1] += a[AsBuiltParam::kJ2Zero];
+      t[2] += a[AsBuiltParam::kJ3Zero];
+      t[3] = q[3] * (1.0 + a[AsBuiltParam::kWristGain]) + a[AsBuiltParam::kWristOffset];
+      const ToolPose p = forward(built, t);
+      const double e = std::hypot(p.x_m - target.x_m, p.y_m - target.y_m, p.z_m - target.z_m);
+      best = std::min(best, std::abs(m_to_mm(e) - errors[k].get<double>()));
+    }
+    // the joints sit anywhere in their dead bands (the drawn backlash, seen at the tool from
+    // each joint's axis), plus 0.1 mm of sag and belt stretch
+    const double r2 = std::hypot(target.x_m - model->dh[0].a_m, target.y_m);
+    const double play_m =
+        0.5 * (a[AsBuiltParam::kJ2Backlash] * r2 + a[AsBuiltParam::kJ3Backlash] * built.dh[2].a_m +
+               a[AsBuiltParam::kZBacklash]);
+    EXPECT_LT(best, m_to_mm(play_m) + 0.1) << "control target " << k << ": measured " << errors[k];
+  }
 }
 
 // A script whose third line cannot run: the error names the line and the robot never gets

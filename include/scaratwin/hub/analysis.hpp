@@ -132,4 +132,29 @@ double tool_distance(const RobotModel& model, const JointVector& a, const JointV
 double lost_steps_tool_offset_m(const RobotModel& model, const std::array<double, 3>& counts,
                                 const std::array<std::int32_t, 3>& offset_steps, double wrist_deg);
 
+// --- the twin against an instrument outside it (the emulator's truth, a tracker) -----------
+// A tool position measured outside the twin, at a time of the robot's own clock (s).
+struct ToolTruth {
+  double t_s = 0.0;
+  std::array<double, 3> p_m{};
+};
+// Joints the robot reported, at the time of its clock at which it sampled them (s).
+struct TimedJoints {
+  double t_s = 0.0;
+  JointVector q{};
+};
+// Distances between the virtual robot's tool and a measured one.
+struct ToolErrorStats {
+  std::size_t count = 0;
+  double mean_m = 0.0;
+  double p95_m = 0.0;
+  double max_m = 0.0;
+};
+// For each truth sample inside the span of the reports (sorted by time): the virtual robot's
+// tool, FK of the description at the reported joints interpolated linearly in time, against
+// the measured tool. Samples whose bracketing reports are more than `max_gap_s` apart are
+// skipped (a gap in the reports is not an error of the twin).
+ToolErrorStats tool_error_vs_truth(const RobotModel& model, const std::vector<TimedJoints>& reports,
+                                   const std::vector<ToolTruth>& truth, double max_gap_s = 0.05);
+
 }  // namespace scaratwin
