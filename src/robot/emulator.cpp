@@ -108,6 +108,12 @@ Result<std::unique_ptr<Emulator>> Emulator::create(const EmulatorOptions& option
                                       options.plant->options);
     if (!plant) return Error{1, "the physical world: " + plant.error().message};
     e->plant_ = std::move(plant).value();
+    if (options.camera_port >= 0) {
+      auto cam = SideChannel::listen(static_cast<std::uint16_t>(options.camera_port));
+      if (!cam) return Error{1, "the camera's port: " + cam.error().message};
+      cam->set_blocking_replies(true);
+      e->camera_port_.emplace(std::move(cam).value());
+    }
   }
   e->wire_pins();
   for (const auto& s : e->scenario_) {
@@ -238,6 +244,32 @@ std::string Emulator::truth_line() const {
       q[0], q[1], q[2], q[3], tool.x_m, tool.y_m, tool.z_m, tool.yaw_rad, lost[0], lost[1],
       lost[2], plant_->held_cube());
   return line;
+}
+
+std::string Emulator::camera_command(const std::string& line) {
+  std::istringstream in(line);
+  std::string verb;
+  int w = 0, h = 0;
+  in >> verb >> w >> h;
+  if (verb != "grab") return "ERR unknown command '" + verb + "': use grab <width> <height>";
+  const CameraModel& cam = plant_->built().scene.camera;
+  if (w < 16 || h < 16 || w > cam.width_px || h > cam.height_px) {
+    return fmt::format("ERR grab needs a size from 16x16 to {}x{}", cam.width_px, cam.height_px);
+  }
+  if (!camera_) {
+    // the lens of this robot's webcam: its own seeded spread around a cheap lens
+    plant::LensModel lens;
+    lens.seed = options_.plant->description.physical.as_built.seed;
+    auto c = plant::PlantCamera::create(*plant_, lens);
+    if (!c) return "ERR the camera cannot render: " + c.error().message;
+    camera_ = std::move(c).value();
+  }
+  auto img = camera_->grab(*plant_, w, h);
+  if (!img) return "ERR the camera cannot render: " + img.error().message;
+  std::string out = fmt::format("FRAME {} {} {} {} {}\n", camera_->frames(), avr_->sim_us(),
+                                img->width_px, img->height_px, img->rgb.size());
+  out.append(reinterpret_cast<const char*>(img->rgb.data()), img->rgb.size());
+  return out;
 }
 
 std::string Emulator::cubes_line() const {
@@ -406,6 +438,11 @@ Status Emulator::run(const volatile bool& stop) {
       fds.push_back({pty_.master_fd(), POLLIN, 0});
       fds.push_back({side_.listen_fd(), POLLIN, 0});
       for (int fd : side_.client_fds()) fds.push_back({fd, POLLIN, 0});
+      const std::size_t camera_from = fds.size();
+      if (camera_port_) {
+        fds.push_back({camera_port_->listen_fd(), POLLIN, 0});
+        for (int fd : camera_port_->client_fds()) fds.push_back({fd, POLLIN, 0});
+      }
       timespec ts{wait_us / 1000000, (wait_us % 1000000) * 1000};
       ppoll(fds.data(), fds.size(), &ts, nullptr);
       if (fds[0].revents & POLLIN) {
@@ -419,8 +456,15 @@ Status Emulator::run(const volatile bool& stop) {
       // the side channel only when a client connects, sends or leaves (a system call per
       // client less on each pass)
       bool side_ready = false;
-      for (std::size_t i = 1; i < fds.size(); ++i) side_ready = side_ready || fds[i].revents != 0;
+      for (std::size_t i = 1; i < camera_from; ++i) side_ready = side_ready || fds[i].revents != 0;
       if (side_ready) side_.poll([this](const std::string& l, int c) { return command(l, c); });
+      bool camera_ready = false;
+      for (std::size_t i = camera_from; i < fds.size(); ++i) {
+        camera_ready = camera_ready || fds[i].revents != 0;
+      }
+      if (camera_ready) {
+        camera_port_->poll([this](const std::string& l, int) { return camera_command(l); });
+      }
       side_.publish(clock_us(CLOCK_MONOTONIC), [this] { return truth_line(); });
     } while (!stop && clock_us(CLOCK_MONOTONIC) < due_us &&
              !(host_byte && clock_us(CLOCK_MONOTONIC) >= sync_us));

@@ -91,6 +91,12 @@ int main(int argc, char** argv) {
   app.add_option("--as-built-seed", as_built_seed,
                  "seed of the as-built draw (default: [as_built] seed of the description)")
       ->check(CLI::Range(0LL, 2147483647LL));
+  int camera_port = 0;
+  app.add_option("--camera-port", camera_port,
+                 "port of the real camera over the physical table on 127.0.0.1 (as-built; 0 = "
+                 "any free port, -1 = no camera)")
+      ->capture_default_str()
+      ->check(CLI::Range(-1, 65535));
   bool exit_with_parent = false;
   app.add_flag("--exit-with-parent", exit_with_parent,
                "terminate when the process that started the emulator dies (tests)");
@@ -135,6 +141,7 @@ int main(int argc, char** argv) {
     std::fprintf(stderr, "scaratwin-robot: --payload needs --plant as-built\n");
     return 2;
   }
+  opt.camera_port = camera_port;
   if (!profile_path.empty()) opt.profile_cycles = 61;
   auto emu = robot::Emulator::create(opt);
   if (!emu) {
@@ -161,6 +168,9 @@ int main(int argc, char** argv) {
   }
   std::printf("pty: %s\n", e.pty().slave_path().c_str());
   std::printf("side channel: 127.0.0.1:%u\n", static_cast<unsigned>(e.side().port()));
+  if (e.camera_port() != 0) {
+    std::printf("camera: 127.0.0.1:%u\n", static_cast<unsigned>(e.camera_port()));
+  }
   std::fflush(stdout);
   std::signal(SIGINT, on_signal);
   std::signal(SIGTERM, on_signal);

@@ -5,6 +5,7 @@
 #include <fcntl.h>
 #include <netinet/in.h>
 #include <netinet/tcp.h>
+#include <poll.h>
 #include <sys/socket.h>
 #include <unistd.h>
 
@@ -35,7 +36,10 @@ Result<SideChannel> SideChannel::listen(std::uint16_t port) {
 }
 
 SideChannel::SideChannel(SideChannel&& other) noexcept
-    : listen_fd_(other.listen_fd_), port_(other.port_), clients_(std::move(other.clients_)) {
+    : listen_fd_(other.listen_fd_),
+      port_(other.port_),
+      clients_(std::move(other.clients_)),
+      blocking_(other.blocking_) {
   other.listen_fd_ = -1;
   other.clients_.clear();
 }
@@ -59,7 +63,12 @@ void SideChannel::write_all(Client& c, const std::string& data) {
     const ssize_t n = ::send(c.fd, data.data() + off, data.size() - off, MSG_NOSIGNAL);
     if (n < 0 && errno == EINTR) continue;
     if (n <= 0) {
-      if (n < 0 && errno == EAGAIN) return;  // a client that does not read loses samples
+      if (n < 0 && errno == EAGAIN && blocking_) {
+        // a reply that must arrive whole (a camera frame): wait for the client to read
+        pollfd p{c.fd, POLLOUT, 0};
+        if (::poll(&p, 1, 2000) == 1) continue;
+      }
+      if (n < 0 && errno == EAGAIN && !blocking_) return;  // a slow client loses samples
       ::close(c.fd);
       c.fd = -1;
       return;

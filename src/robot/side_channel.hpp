@@ -60,6 +60,9 @@ class SideChannel {
   void publish(std::uint64_t mono_us, const std::function<std::string()>& make_line);
   void send_to(int client, const std::string& line);
   void set_rate(int client, double hz);
+  // Replies wait (up to 2 s) for a client that is slow to read instead of being cut short:
+  // for binary replies that must arrive whole (the camera's frames).
+  void set_blocking_replies(bool on) { blocking_ = on; }
 
  private:
   struct Client {
@@ -74,6 +77,7 @@ class SideChannel {
   int listen_fd_ = -1;
   std::uint16_t port_ = 0;
   std::vector<Client> clients_;
+  bool blocking_ = false;
 };
 
 }  // namespace scaratwin::robot

@@ -218,6 +218,12 @@ Result<std::string> make_mjcf(const RobotModel& model, const MjcfOptions& o) {
       "            <site name=\"{}\" pos=\"{}\" quat=\"{}\" size=\"0.003\" "
       "rgba=\"1 0.6 0 0.6\"/>\n",
       kToolSite, vec(dh[3].a_m, 0, tool_z), quat_xz(dh[3].alpha_rad, 0.0));
+  // the tracking marker: a magenta disc on the wrist axis, above the elbow link's end, where
+  // the overhead camera sees it at every pose
+  x += fmt::format(
+      "            <geom name=\"{}\" type=\"cylinder\" size=\"{} 0.0005\" pos=\"0 0 {}\" "
+      "mass=\"0.001\" rgba=\"1 0 1 1\"/>\n",
+      kMarkerGeom, num(kMarkerRadiusM), num(marker_above_wrist_m(model)));
   // fingers: slide along the wrist x axis; joint value = extra opening beyond closed
   for (int side = 0; side < 2; ++side) {
     const double s = side == 0 ? 1.0 : -1.0;
@@ -316,6 +322,19 @@ Result<std::string> make_urdf(const RobotModel& model) {
       vec(dh[3].a_m, 0, dh[3].d_m), vec(rpy[0], rpy[1], rpy[2]));
   x += "</robot>\n";
   return x;
+}
+
+double marker_above_wrist_m(const RobotModel& model) {
+  // on top of the elbow link's rounded end (radius 15 mm), which sits -d3 above the wrist
+  return -model.dh[2].d_m + 0.0155;
+}
+
+std::array<double, 3> marker_position(const RobotModel& model, const JointVector& q) {
+  const auto& dh = model.dh;
+  const double x = dh[0].a_m + dh[1].a_m * std::cos(q[1]) + dh[2].a_m * std::cos(q[1] + q[2]);
+  const double y = dh[1].a_m * std::sin(q[1]) + dh[2].a_m * std::sin(q[1] + q[2]);
+  const double z = q[0] + dh[0].d_m + dh[1].d_m + dh[2].d_m + marker_above_wrist_m(model);
+  return {x, y, z};
 }
 
 }  // namespace scaratwin::sim

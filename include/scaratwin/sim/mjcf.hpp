@@ -22,6 +22,14 @@ inline constexpr const char* kToolSite = "tool";
 inline constexpr const char* kCameraName = "overhead";
 inline constexpr const char* kGripperBody = "wrist";
 inline constexpr const char* kFingerJoints[2] = {"finger_l", "finger_r"};
+// The tracking marker: a magenta disc on the wrist axis that the overhead camera follows.
+inline constexpr const char* kMarkerGeom = "marker";
+inline constexpr double kMarkerRadiusM = 0.006;
+// Height of the marker's centre above the wrist body's origin (m).
+double marker_above_wrist_m(const RobotModel& model);
+// Where the marker's centre is for joints q (in B, m): the wrist axis (the standard DH chain
+// of the description for links 1-3; the marker does not turn with q4).
+std::array<double, 3> marker_position(const RobotModel& model, const JointVector& q);
 
 struct MjcfOptions {
   int cubes_per_color = 4;      // size of the cube pool of each colour, >= 1
