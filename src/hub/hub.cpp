@@ -402,6 +402,10 @@ Status Hub::jog(pr::Axis axis, double delta) {
   return check("jog", robot_->request(pr::Jog{axis, delta}, milliseconds(1000)));
 }
 
+Status Hub::set_setting(int key, int value) {
+  return check("CF", robot_->request(pr::Config{key, value}, milliseconds(1000)));
+}
+
 Status Hub::stop() {
   if (Status s = robot_->send_realtime(pr::Realtime::kStop); !s) return s;
   return Ok{};

@@ -164,4 +164,26 @@ std::vector<CubeDetection> detect_cubes(const RgbImage& img, const RobotModel& m
   return out;
 }
 
+bool detect_marker(const RgbImage& image, double& col, double& row, int min_area_px,
+                   double min_channel, double green_ratio) {
+  const double lo = 255.0 * min_channel;
+  double su = 0.0, sv = 0.0;
+  int n = 0;
+  for (int v = 0; v < image.height; ++v) {
+    for (int u = 0; u < image.width; ++u) {
+      const std::uint8_t* p = &image.rgb[3 * (static_cast<std::size_t>(v) * image.width + u)];
+      const double r = p[0], g = p[1], b = p[2];
+      if (r >= lo && b >= lo && g < green_ratio * std::min(r, b)) {
+        su += u + 0.5;
+        sv += v + 0.5;
+        ++n;
+      }
+    }
+  }
+  if (n < min_area_px) return false;
+  col = su / n;
+  row = sv / n;
+  return true;
+}
+
 }  // namespace scaratwin

@@ -125,6 +125,8 @@ class Hub {
   Result<int> run_trajectory(const JointTrajectory& trajectory, double timeout_s = 0.0);
   Status set_gripper(bool closed);
   Status jog(protocol::Axis axis, double delta);
+  // Writes one of the robot's settings (CF: key and value as docs/protocol.md lists them).
+  Status set_setting(int key, int value);
   Status stop();
   // Desync alarms raised during trajectories since connect.
   int desync_alarms() const { return desync_alarms_.load(); }

@@ -68,4 +68,10 @@ struct DetectOptions {
 std::vector<CubeDetection> detect_cubes(const RgbImage& image, const RobotModel& model,
                                         const DetectOptions& options = {});
 
+// The robot's tracking marker (a magenta disc on the wrist axis): the centroid of the magenta
+// pixels (red and blue both at least `min_channel` of full scale and green below `green_ratio`
+// of the smaller of them), in pixels; false when fewer than `min_area_px` are found.
+bool detect_marker(const RgbImage& image, double& col, double& row, int min_area_px = 4,
+                   double min_channel = 0.45, double green_ratio = 0.6);
+
 }  // namespace scaratwin
