@@ -84,7 +84,9 @@ int main(int argc, char** argv) {
   app.add_option("--http-port", a.http_port, "browser UI port (0: no UI)")->capture_default_str();
   app.add_option("--http-bind", a.http_bind, "address the browser UI listens on")
       ->capture_default_str();
-  app.add_option("--web-root", a.web_root, "folder of the built page (default: the build tree's)");
+  app.add_option(
+      "--web-root", a.web_root,
+      "folder of the built page (default: the build tree's, or <prefix>/share/scaratwin/web)");
   CLI11_PARSE(app, argc, argv);
 
   auto robot = load_robot_config_or_default(a.config_path);

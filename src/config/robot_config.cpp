@@ -13,6 +13,7 @@
 
 #include <toml++/toml.h>
 
+#include "scaratwin/config/data_paths.hpp"
 #include "scaratwin/core/units.hpp"
 
 namespace scaratwin {
@@ -389,17 +390,21 @@ std::filesystem::path default_robot_config_path() {
   if (const char* env = std::getenv("SCARATWIN_CONFIG"); env != nullptr && *env != '\0') {
     return env;
   }
-  std::error_code ec;
-  const auto exe = std::filesystem::read_symlink("/proc/self/exe", ec);
-  if (!ec) {
-    const auto installed = exe.parent_path() / ".." / "share" / "scaratwin" / "scara.toml";
-    if (std::filesystem::exists(installed, ec)) return installed.lexically_normal();
-  }
-  return SCARATWIN_DEFAULT_CONFIG;
+  return data_paths().config_dir / "scara.toml";
 }
 
 Result<RobotModel> load_robot_config_or_default(const std::filesystem::path& path) {
-  return load_robot_config(path.empty() ? default_robot_config_path() : path);
+  if (path.empty()) {
+    const std::filesystem::path def = default_robot_config_path();
+    std::error_code ec;
+    const char* env = std::getenv("SCARATWIN_CONFIG");
+    if ((env == nullptr || *env == '\0') && !std::filesystem::exists(def, ec)) {
+      return Error{2, missing_data_message("robot description", def) +
+                          " (or pass --config FILE, or set SCARATWIN_CONFIG)"};
+    }
+    return load_robot_config(def);
+  }
+  return load_robot_config(path);
 }
 
 }  // namespace scaratwin

@@ -19,6 +19,7 @@
 #include <CLI/CLI.hpp>
 
 #include "emulator.hpp"
+#include "scaratwin/config/data_paths.hpp"
 #include "scaratwin/config/robot_config.hpp"
 #include "scaratwin/core/units.hpp"
 #include "scaratwin/kinematics/motor.hpp"
@@ -32,16 +33,8 @@ namespace {
 volatile bool g_stop = false;
 void on_signal(int) { g_stop = true; }
 
-std::string default_firmware() {
-  namespace fs = std::filesystem;
-  std::error_code ec;
-  const fs::path exe = fs::read_symlink("/proc/self/exe", ec);
-  if (!ec) {
-    const fs::path beside = exe.parent_path() / ".." / "firmware" / "uno" / "scaratwin-fw-uno.elf";
-    if (fs::exists(beside)) return beside.lexically_normal().string();
-  }
-  return SCARATWIN_FIRMWARE_ELF;
-}
+// the Uno image of the build tree or of the installed data folder (data_paths.hpp)
+std::string default_firmware() { return scaratwin::firmware_image("uno", "elf").string(); }
 
 }  // namespace
 
@@ -143,6 +136,12 @@ int main(int argc, char** argv) {
   }
   opt.camera_port = camera_port;
   if (!profile_path.empty()) opt.profile_cycles = 61;
+  if (std::error_code ec;
+      opt.firmware == default_firmware() && !std::filesystem::exists(opt.firmware, ec)) {
+    std::fprintf(stderr, "scaratwin-robot: %s (or pass --firmware PATH)\n",
+                 scaratwin::missing_data_message("firmware image", opt.firmware).c_str());
+    return 1;
+  }
   auto emu = robot::Emulator::create(opt);
   if (!emu) {
     std::fprintf(stderr, "scaratwin-robot: %s\n", emu.error().message.c_str());

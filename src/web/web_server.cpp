@@ -20,6 +20,7 @@
 #include <boost/beast/http.hpp>
 #include <boost/beast/websocket.hpp>
 
+#include "scaratwin/config/data_paths.hpp"
 #include "scaratwin/web/feed.hpp"
 
 namespace scaratwin::web {
@@ -118,13 +119,7 @@ struct WsSession : std::enable_shared_from_this<WsSession> {
 
 }  // namespace
 
-std::string default_web_root() {
-#ifdef SCARATWIN_WEB_ROOT
-  return SCARATWIN_WEB_ROOT;
-#else
-  return "web";
-#endif
-}
+std::string default_web_root() { return data_paths().web_root.string(); }
 
 struct WebServer::Impl {
   Impl(sim::World& w, WebOptions o, LinkStatusFn l)
@@ -396,6 +391,11 @@ Result<std::unique_ptr<WebServer>> WebServer::create(sim::World& world, const We
   std::error_code fec;
   const std::filesystem::path root = std::filesystem::absolute(options.root_dir, fec);
   if (fec || !std::filesystem::is_regular_file(root / "index.html", fec)) {
+    if (options.root_dir == default_web_root() && !data_paths().problem.empty()) {
+      return Error{
+          static_cast<int>(WebError::kBadOption),
+          missing_data_message("the browser page", root / "index.html") + " (or pass --web-root)"};
+    }
     return Error{static_cast<int>(WebError::kBadOption),
                  fmt::format("web root \"{}\" has no index.html (build the page with the "
                              "scaratwin_web_assets target, or pass --web-root)",

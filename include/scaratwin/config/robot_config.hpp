@@ -17,8 +17,9 @@ Result<RobotModel> parse_robot_config(std::string_view toml_text, std::string_vi
 // Reads and parses a file.
 Result<RobotModel> load_robot_config(const std::filesystem::path& path);
 
-// The description used when none is given: $SCARATWIN_CONFIG if set, else
-// <exe dir>/../share/scaratwin/scara.toml if present, else the source tree's config/scara.toml.
+// The description used when none is given: $SCARATWIN_CONFIG if set, else scara.toml in the
+// robot descriptions' folder of data_paths.hpp (the source tree's config/ for an executable run
+// from its build tree, <prefix>/share/scaratwin/config/ for an installed one).
 std::filesystem::path default_robot_config_path();
 
 // Loads `path`, or the default description when `path` is empty.

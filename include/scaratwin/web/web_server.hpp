@@ -21,7 +21,8 @@ namespace scaratwin::web {
 
 inline constexpr std::uint16_t kDefaultHttpPort = 8080;
 
-// Where the built page is (the build tree's web/www), set at configure time.
+// Where the built page is: the build tree's web/www, or the installed data folder's web/
+// (scaratwin/config/data_paths.hpp).
 std::string default_web_root();
 
 struct WebOptions {
