@@ -77,3 +77,16 @@ if(TARGET scaratwin-robot)
           COMPONENT emulator)
 endif()
 
+# bash completion (bash-completion loads a file named after the command on first use)
+foreach(cmd scaratwin scaratwin-sim scaratwin-robot)
+  if(TARGET ${cmd})
+    if(cmd STREQUAL "scaratwin-robot")
+      set(component emulator)
+    else()
+      set(component runtime)
+    endif()
+    install(FILES ${PROJECT_SOURCE_DIR}/scripts/completion/scaratwin.bash
+            DESTINATION ${CMAKE_INSTALL_DATADIR}/bash-completion/completions RENAME ${cmd}
+            COMPONENT ${component})
+  endif()
+endforeach()

@@ -67,6 +67,7 @@ expect_file(${prefix}/${CMAKEDIR}/scaratwinConfig.cmake)
 expect_file(${prefix}/${CMAKEDIR}/scaratwinConfigVersion.cmake)
 expect_file(${prefix}/${DOCDIR}/LICENSE)
 expect_file(${prefix}/${DOCDIR}/README.md)
+expect_file(${prefix}/${DATADIR}/bash-completion/completions/scaratwin)
 
 # 2. a moved prefix works: the installed executables find their data beside themselves, run
 # from an empty folder with a PATH of the prefix's bin alone
