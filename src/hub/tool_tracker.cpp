@@ -112,16 +112,23 @@ Status PlaneCorrection::fit() {
   if (n < 20) {
     return Error{1, fmt::format("tracker: {} learning samples, at least 20 needed", n)};
   }
-  double lo[2] = {1e9, 1e9}, hi[2] = {-1e9, -1e9};
+  // how the samples spread: the cubic terms are observable only over an area; along a
+  // single path (one arc, out and back) only an offset and a linear map are
+  double mean[2] = {0.0, 0.0};
   for (const auto& t : truth_) {
-    for (int k = 0; k < 2; ++k) {
-      lo[k] = std::min(lo[k], t[k]);
-      hi[k] = std::max(hi[k], t[k]);
-    }
+    mean[0] += t[0] / static_cast<double>(n);
+    mean[1] += t[1] / static_cast<double>(n);
   }
-  // a path that does not spread both ways leaves the cubic terms unobservable: fit an offset
-  // and a linear map only then
-  const bool spread = hi[0] - lo[0] >= 0.02 && hi[1] - lo[1] >= 0.02;
+  double cxx = 0.0, cxy = 0.0, cyy = 0.0;
+  for (const auto& t : truth_) {
+    const double dx = t[0] - mean[0], dy = t[1] - mean[1];
+    cxx += dx * dx / static_cast<double>(n);
+    cxy += dx * dy / static_cast<double>(n);
+    cyy += dy * dy / static_cast<double>(n);
+  }
+  const double tr = cxx + cyy, det = cxx * cyy - cxy * cxy;
+  const double narrow = 0.5 * tr - std::sqrt(std::max(0.0, 0.25 * tr * tr - det));
+  const bool spread = std::sqrt(std::max(0.0, narrow)) >= 0.02;
   const int m = spread ? 10 : 3;
   Eigen::MatrixXd a(static_cast<Eigen::Index>(n), m);
   Eigen::VectorXd bx(static_cast<Eigen::Index>(n)), by(static_cast<Eigen::Index>(n));

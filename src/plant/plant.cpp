@@ -109,7 +109,7 @@ Result<std::unique_ptr<Plant>> Plant::create(const RobotModel& description, cons
   // apart, so only the arm's own reflected inertia remains in the armature
   p->sim_->enable_drive({20.0, 0.002, 0.001}, {0.0, 0.0, 0.0}, kJointFriction);
   p->sim_->set_drive({0.0, 0.0, 0.0}, q0[3]);
-  if (options.payload_kg > 0.0) p->sim_->add_payload(options.payload_kg);
+  if (options.payload_kg > 0.0) p->sim_->set_payload(options.payload_kg);
   p->q0_ = p->sim_->joints();
   p->qd0_ = {};
   p->update_endstops(p->q0_);
@@ -277,6 +277,13 @@ Status Plant::advance_to(double t_s) {
 Result<sim::CubeState> Plant::place_cube(CubeColor color, double x_m, double y_m, double yaw_rad) {
   wake();
   return sim_->spawn_cube(color, x_m, y_m, yaw_rad);
+}
+
+Status Plant::set_payload(double mass_kg) {
+  if (!(mass_kg >= 0.0 && mass_kg <= 2.0)) return Error{1, "payload must be in [0, 2] kg"};
+  wake();
+  sim_->set_payload(mass_kg);
+  return Ok{};
 }
 
 void Plant::clear_cubes() {

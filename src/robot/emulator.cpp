@@ -121,12 +121,13 @@ Result<std::unique_ptr<Emulator>> Emulator::create(const EmulatorOptions& option
     std::istringstream ls(s.command);
     std::string verb;
     ls >> verb;
-    static const char* kVerbs[] = {"press", "release", "cut",  "lose",  "corrupt",
-                                   "query", "rate",    "mark", "place", "clear"};
+    static const char* kVerbs[] = {"press", "release", "cut",   "lose",  "corrupt", "query",
+                                   "rate",  "mark",    "place", "clear", "payload"};
     if (std::find_if(std::begin(kVerbs), std::end(kVerbs),
                      [&](const char* v) { return verb == v; }) == std::end(kVerbs)) {
-      return Error{1, "scenario command '" + s.command +
-                          "' is unknown: use press, release, cut, lose, corrupt, place or clear"};
+      return Error{
+          1, "scenario command '" + s.command +
+                 "' is unknown: use press, release, cut, lose, corrupt, place, clear or payload"};
     }
   }
   return e;
@@ -241,8 +242,8 @@ std::string Emulator::truth_line() const {
       " plant=as-built d1_m={:.7f} q2_rad={:.7f} q3_rad={:.7f} q4_rad={:.7f} tool_x_m={:.7f} "
       "tool_y_m={:.7f} tool_z_m={:.7f} tool_yaw_rad={:.7f} lost_z={} lost_j2={} lost_j3={} "
       "held={}",
-      q[0], q[1], q[2], q[3], tool.x_m, tool.y_m, tool.z_m, tool.yaw_rad, lost[0], lost[1],
-      lost[2], plant_->held_cube());
+      q[0], q[1], q[2], q[3], tool.x_m, tool.y_m, tool.z_m, tool.yaw_rad, lost[0], lost[1], lost[2],
+      plant_->held_cube());
   return line;
 }
 
@@ -290,6 +291,13 @@ std::string Emulator::command(const std::string& line, int client) {
   const double now_s = avr_->sim_seconds();
   if (verb == "query") return truth_line();
   if (verb == "cubes") return cubes_line();
+  if (verb == "payload") {
+    if (!plant_) return "ERR the ideal robot has no physical world: start with --plant as-built";
+    double kg = -1.0;
+    if (!(in >> kg)) return "ERR payload needs a mass in kg (0..2)";
+    if (Status st = plant_->set_payload(kg); !st) return "ERR " + st.error().message;
+    return "OK " + line;
+  }
   if (verb == "place" || verb == "clear") {
     if (!plant_) {
       return "ERR the ideal robot has no physical world: start the emulator with --plant "
@@ -359,7 +367,8 @@ std::string Emulator::command(const std::string& line, int client) {
     return "OK " + line;
   }
   return "ERR unknown command '" + verb +
-         "': use query, rate, mark, press, release, cut, lose, corrupt, cubes, place, clear";
+         "': use query, rate, mark, press, release, cut, lose, corrupt, cubes, place, clear, "
+         "payload";
 }
 
 namespace {

@@ -430,19 +430,31 @@ void Simulation::set_drive(const std::array<double, 3>& force, double wrist_targ
   drive_wrist_rad_ = wrist_target_rad;
 }
 
-void Simulation::add_payload(double mass_kg) {
-  if (!(mass_kg > 0.0)) return;
-  // a point mass at the tool: the gripper body's mass, centre and inertia combined
+void Simulation::set_payload(double mass_kg) {
+  // a point mass at the tool: the gripper body's mass, centre and inertia combined, from the
+  // body as the model built it
   const int b = ids_.gripper_body;
-  const double m0 = m_->body_mass[b];
+  if (!payload_base_) {
+    PayloadBase base;
+    base.mass = m_->body_mass[b];
+    for (int i = 0; i < 3; ++i) {
+      base.ipos[i] = m_->body_ipos[3 * b + i];
+      base.inertia[i] = m_->body_inertia[3 * b + i];
+    }
+    payload_base_ = base;
+  }
+  const PayloadBase& base = *payload_base_;
+  const double extra = std::max(0.0, mass_kg);
   const double* tool_local = m_->site_pos + 3 * ids_.tool_site;
-  double* com = m_->body_ipos + 3 * b;
-  const double m1 = m0 + mass_kg;
-  for (int i = 0; i < 3; ++i) com[i] = (m0 * com[i] + mass_kg * tool_local[i]) / m1;
+  const double m1 = base.mass + extra;
+  for (int i = 0; i < 3; ++i) {
+    m_->body_ipos[3 * b + i] = (base.mass * base.ipos[i] + extra * tool_local[i]) / m1;
+    // a generous sphere of the payload about the new centre (its offset from the joints
+    // dominates, and MuJoCo adds that itself)
+    m_->body_inertia[3 * b + i] = base.inertia[i] + extra * 4e-5;
+  }
   m_->body_mass[b] = m1;
-  // inertia about the new centre: a generous sphere of the combined mass (the payload's
-  // offset dominates the arm's inertia about the joints, which MuJoCo adds itself)
-  for (int i = 0; i < 3; ++i) m_->body_inertia[3 * b + i] += mass_kg * 4e-5;
+  payload_kg_ = extra;
   // (no mj_setConst: it would put the joints back at qpos0; the dynamics read these fields
   // directly at every step)
 }

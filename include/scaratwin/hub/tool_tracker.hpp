@@ -55,7 +55,8 @@ class PlaneCorrection {
  public:
   void add(const std::array<double, 2>& guess, const std::array<double, 2>& truth);
   std::size_t samples() const { return guess_.size(); }
-  // Needs >= 20 samples spread over at least 2 cm each way.
+  // Needs >= 20 samples; the cubic terms are fitted only when the samples cover an area (2 cm
+  // both ways), else an offset and a linear map.
   Status fit();
   bool fitted() const { return fitted_; }
   std::array<double, 2> apply(const std::array<double, 2>& guess) const;
@@ -69,8 +70,8 @@ class PlaneCorrection {
 struct TrackerOptions {
   std::string host = "127.0.0.1";
   std::uint16_t port = 0;
-  int width_px = 320;  // a reduced picture: the marker is about 7 px across
-  int height_px = 240;
+  int width_px = 480;  // a reduced picture: the marker is about 11 px across
+  int height_px = 360;
   double fps = 20.0;
   double threshold_m = 0.002;
   int persist = 2;

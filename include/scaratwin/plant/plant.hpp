@@ -73,6 +73,8 @@ class Plant {
   // --- the operator ---------------------------------------------------------------------------
   Result<sim::CubeState> place_cube(CubeColor color, double x_m, double y_m, double yaw_rad);
   void clear_cubes();
+  // The operator hangs a mass on the tool (kg, 0..2; 0 takes it off).
+  Status set_payload(double mass_kg);
 
   // --- the truth (measuring instruments only) -------------------------------------------------
   double time_s() const { return time_s_; }

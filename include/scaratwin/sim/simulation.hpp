@@ -155,8 +155,9 @@ class Simulation {
                     const std::array<double, 3>& frictionloss);
   bool driven() const { return driven_; }
   void set_drive(const std::array<double, 3>& force, double wrist_target_rad);
-  // Adds a point mass at the tool (a payload), kg.
-  void add_payload(double mass_kg);
+  // A point mass held at the tool (a payload), kg; 0 takes it away.
+  void set_payload(double mass_kg);
+  double payload_kg() const { return payload_kg_; }
   JointVector joint_velocities() const;
   // The largest speed of any degree of freedom (m/s or rad/s): zero when all is at rest.
   double max_speed() const;
@@ -247,6 +248,12 @@ class Simulation {
   bool driven_ = false;
   std::array<double, 3> drive_force_{};
   double drive_wrist_rad_ = 0.0;
+  struct PayloadBase {
+    double mass = 0.0;
+    std::array<double, 3> ipos{}, inertia{};
+  };
+  std::optional<PayloadBase> payload_base_;
+  double payload_kg_ = 0.0;
   int held_ = -1;
 
   std::deque<ToolPoint> path_;
