@@ -35,6 +35,7 @@
 #include "scaratwin/hub/process.hpp"
 #include "scaratwin/hub/report.hpp"
 #include "scaratwin/hub/tasks.hpp"
+#include "scaratwin/hub/tool_tracker.hpp"
 
 namespace scaratwin::cli {
 namespace {
@@ -154,6 +155,7 @@ bool physical_ok(const DemoOutcome& o, std::size_t cubes) {
 struct Instruments {
   EmulatorSide* side = nullptr;
   TruthRecorder* truth = nullptr;
+  NetCamera* camera = nullptr;  // the robot's webcam (the twin's own sensor, not a truth)
 };
 
 // Virtual -> physical tool along the motions of `run` between two monotonic times: the
@@ -316,6 +318,7 @@ Result<DemoOutcome> run_phases(Hub& hub, TwinDb& db, const DemoArgs& a, std::int
   // 4. prediction: the sorting task in the simulator with physics.
   step(4, kSteps, "digital prediction: camera shot, colour recognition, sorting simulated");
   const std::vector<SortItem> layout = cube_layout(a.seed);
+  std::vector<SortItem> where = layout;  // where the virtual twins of the cubes go
   SortPlan plan;
   std::int64_t prediction = 0;
   {
@@ -328,16 +331,36 @@ Result<DemoOutcome> run_phases(Hub& hub, TwinDb& db, const DemoArgs& a, std::int
     std::this_thread::sleep_for(100ms);
     if (Status s = hub.reset_scene(); !s) return s.error();
     if (Status s = hub.sim_mode(protocol::SimMode::kSimulate); !s) return s.error();
-    if (Status s = spawn_all(hub, layout); !s) return s.error();
     if (inst.side != nullptr) {
       // the operator puts the physical cubes where the layout says
       if (Status s = inst.side->clear(); !s) return s.error();
       for (const SortItem& it : layout) {
         if (Status s = inst.side->place(it.color, it.x_m, it.y_m); !s) return s.error();
+        fmt::print("    operator: {} cube put on the table at ({:.1f}, {:.1f}) mm\n",
+                   color_name(it.color), m_to_mm(it.x_m), m_to_mm(it.y_m));
       }
     }
-    for (const SortItem& it : layout) {
-      fmt::print("    spawned: {} cube at ({:.1f}, {:.1f}) mm\n", color_name(it.color),
+    if (inst.camera != nullptr) {
+      // the twin finds the physical cubes in the robot's webcam and spawns their virtual
+      // twins where it sees them
+      std::this_thread::sleep_for(300ms);
+      auto frame = inst.camera->grab(model.scene.camera.width_px, model.scene.camera.height_px);
+      if (!frame) return frame.error();
+      const auto found = detect_cubes(frame->image, model);
+      where.clear();
+      for (const CubeDetection& d : found) {
+        where.push_back(SortItem{d.color, d.x_m, d.y_m, 0.0});
+        fmt::print("    robot's webcam: {} cube at ({:.1f}, {:.1f}) mm\n", color_name(d.color),
+                   m_to_mm(d.x_m), m_to_mm(d.y_m));
+      }
+      if (where.size() != layout.size()) {
+        return Error{95, fmt::format("the robot's webcam found {} cubes on the table, expected {}",
+                                     where.size(), layout.size())};
+      }
+    }
+    if (Status s = spawn_all(hub, where); !s) return s.error();
+    for (const SortItem& it : where) {
+      fmt::print("    spawned: virtual {} cube at ({:.1f}, {:.1f}) mm\n", color_name(it.color),
                  m_to_mm(it.x_m), m_to_mm(it.y_m));
     }
     auto seen = recognise_cubes(hub, model);
@@ -380,7 +403,7 @@ Result<DemoOutcome> run_phases(Hub& hub, TwinDb& db, const DemoArgs& a, std::int
     Ticker t(hub, "replay");
     if (Status s = hub.sim_mode(protocol::SimMode::kMirror); !s) return s.error();
     if (Status s = hub.reset_scene(); !s) return s.error();
-    if (Status s = spawn_all(hub, layout); !s) return s.error();
+    if (Status s = spawn_all(hub, where); !s) return s.error();
     const MirrorCounters before = hub.mirror_counters();
     hub.set_mirror(true);
     const std::uint64_t replay_from_us = monotonic_us();
@@ -631,7 +654,20 @@ int run_demo(const CommonOptions& common, const DemoArgs& a) {
   }
   fmt::print("physical robot: {}\n", plant == "real" ? "a real board" : "emulated, plant " + plant);
   const auto t0 = std::chrono::steady_clock::now();
-  const Instruments inst{side ? &*side : nullptr, truth.get()};
+  std::unique_ptr<NetCamera> webcam;
+  if (robot && plant == "as-built") {
+    if (auto cam_line = robot->wait_for_line("camera: ", 2s); cam_line) {
+      auto c = NetCamera::connect(
+          "127.0.0.1",
+          static_cast<std::uint16_t>(std::stoi(cam_line->substr(cam_line->rfind(':') + 1))));
+      if (!c) {
+        std::fprintf(stderr, "scaratwin demo: %s\n", c.error().message.c_str());
+        return kExitFailure;
+      }
+      webcam = std::move(*c);
+    }
+  }
+  const Instruments inst{side ? &*side : nullptr, truth.get(), webcam.get()};
   auto outcome = run_phases(**hub, **db, a, *demo, inst);
   const double dur = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   const bool ok = outcome && physical_ok(*outcome, kNumColors);
