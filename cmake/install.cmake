@@ -24,9 +24,9 @@ if(TARGET scaratwin-robot)
           COMPONENT emulator)
 endif()
 
-# libraries: scaratwin_<name> is exported as scaratwin::<name>. warnings is the private
-# compile-flag target that the static libraries name in their link interface (no flags reach a
-# consumer through it).
+# libraries: scaratwin_<name> is exported as scaratwin::<name> (core and protocol_core carry
+# the include folder). warnings is the private compile-flag target that the static libraries
+# name in their link interface (no flags reach a consumer through it).
 set(scaratwin_libs)
 foreach(name core warnings kinematics trajectory config protocol_core protocol transport
         statements vision sim_model sim sim_server plant web db analysis report script process
@@ -43,8 +43,7 @@ if(SCARATWIN_SANITIZE)
 endif()
 install(TARGETS ${scaratwin_libs} EXPORT scaratwinTargets
         ARCHIVE DESTINATION ${CMAKE_INSTALL_LIBDIR} COMPONENT development
-        LIBRARY DESTINATION ${CMAKE_INSTALL_LIBDIR} COMPONENT development
-        INCLUDES DESTINATION ${CMAKE_INSTALL_INCLUDEDIR})
+        LIBRARY DESTINATION ${CMAKE_INSTALL_LIBDIR} COMPONENT development)
 install(DIRECTORY ${PROJECT_SOURCE_DIR}/include/scaratwin
         DESTINATION ${CMAKE_INSTALL_INCLUDEDIR} COMPONENT development)
 install(EXPORT scaratwinTargets NAMESPACE scaratwin:: FILE scaratwinTargets.cmake

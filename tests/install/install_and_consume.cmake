@@ -27,10 +27,10 @@ function(expect_file path)
   endif()
 endfunction()
 
-function(expect_match text regex what)
-  string(FIND "${text}" "${regex}" at)
+function(expect_match text needle what)
+  string(FIND "${text}" "${needle}" at)
   if(at EQUAL -1)
-    message(FATAL_ERROR "${what}: expected to find '${regex}' in:\n${text}")
+    message(FATAL_ERROR "${what}: expected to find '${needle}' in:\n${text}")
   endif()
 endfunction()
 
