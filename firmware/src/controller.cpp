@@ -147,13 +147,37 @@ void cancel_motion() {
   jog_reset();
 }
 
+// Whether the motors run (or are about to) for a motion that is not given up: a segment
+// steps, segments will start by themselves, homing or a jog generates them. A hold at rest
+// is no motion; neither is a trajectory at rest whose points stopped coming (its host gave
+// up: a queue underrun, a load never finished).
+bool motors_running() {
+  if (stepper_moving()) return true;
+  return !stepper_holding() && (homing_active() || jog_ramping());
+}
+
+// Drops what an earlier motion left at rest (a trajectory and its queue, a hold, a homing or
+// jog held at rest). False while the motors run or a stop is being carried out.
+bool discard_motion() {
+  if (motors_running() || !stepper_discard()) return false;
+  cancel_motion();
+  return true;
+}
+
 // A motion command is refused while halted or held (14), or busy with another motion (9).
+// A trajectory left at rest by a host that gave up does not make the robot busy: it is
+// discarded (docs/protocol.md: TB clears the queue; the host never has to know it was there).
 bool motion_refused(bool allow_jog) {
   if (g_halted || stepper_holding()) {
     reply_er(core::kErrHalted, false, 0);
     return true;
   }
-  if (g_traj.active || homing_active() || (!allow_jog && jog_active())) {
+  const bool jogging = jog_ramping() || (!g_traj.active && stepper_moving());
+  if (homing_active() || (g_traj.active && stepper_moving()) || (!allow_jog && jogging)) {
+    reply_er(core::kErrBusy, false, 0);
+    return true;
+  }
+  if (g_traj.active && !discard_motion()) {
     reply_er(core::kErrBusy, false, 0);
     return true;
   }
@@ -261,9 +285,9 @@ void handle_packet(const core::Packet& p) {
       report_now(flags(), queue_free());
       return;
     case code_id('H', 'M'):
-      if (stepper_holding()) return reply_er(core::kErrHalted, false, 0);
-      if (g_traj.active || homing_active() || jog_active())
-        return reply_er(core::kErrBusy, false, 0);
+      // recovers from any state at rest: halted, held, a trajectory its host gave up; only a
+      // motion still running (or a stop being carried out) makes it wait
+      if (!discard_motion()) return reply_er(core::kErrBusy, false, 0);
       g_halted = false;
       g_rehoming = g_homed;  // the switches will tell how far the counts drifted
       g_homed = false;

@@ -26,6 +26,7 @@ void jog_reset() {
 }
 
 bool jog_active() { return !ramps_idle() || stepper_active(); }
+bool jog_ramping() { return !ramps_idle(); }
 
 void jog_feed(const Settings& s, uint16_t speed) {
   if (ramps_idle()) return;

@@ -20,6 +20,8 @@ void jog_run(uint8_t axis, float speed);
 void jog_reset();
 // True while a ramp is moving or generated segments are still queued.
 bool jog_active();
+// True while a ramp is moving (segments still to generate).
+bool jog_ramping();
 // Once per main-loop pass: queues the next segments. `speed` is the ramps' top speed.
 void jog_feed(const Settings& s, uint16_t speed);
 

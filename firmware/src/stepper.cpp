@@ -300,6 +300,32 @@ void stepper_release() {
   SREG = sreg;
 }
 
+bool stepper_moving() {
+  uint8_t sreg = SREG;
+  cli();
+  const bool held_at_rest = g_hold_req && g_scale_q16 == 0;
+  const bool moving = (g_active && !held_at_rest) || (g_run && !g_hold_req && !g_queue.empty());
+  SREG = sreg;
+  return moving;
+}
+
+bool stepper_discard() {
+  uint8_t sreg = SREG;
+  cli();
+  const bool held_at_rest = g_hold_req && g_scale_q16 == 0;
+  const bool busy = g_stop_req || g_blocked || (g_active && !held_at_rest) ||
+                    (g_run && !g_hold_req && !g_queue.empty());
+  if (!busy) {
+    g_active = false;
+    g_queue.clear();
+    g_hold_req = false;
+    g_held = false;
+    g_scale_q16 = 65536;
+  }
+  SREG = sreg;
+  return !busy;
+}
+
 bool stepper_active() { return g_active || (g_run && !g_queue.empty()); }
 bool stepper_held() { return g_held; }
 bool stepper_holding() { return g_hold_req; }

@@ -57,6 +57,12 @@ void stepper_request_resume();
 // whatever feeds the queue and calls this; it also drops what was queued meanwhile.
 void stepper_release();
 
+// At rest, drops whatever a trajectory, jog or hold left behind: the queued segments, a
+// segment held at rest, the hold itself. Returns false (and changes nothing) while a motor
+// steps or is about to (stepper_moving()), or while a stop is still being carried out.
+bool stepper_discard();
+// A motor steps now, or queued segments will start by themselves (not held, not pre-filling).
+bool stepper_moving();
 bool stepper_active();   // executing a segment, or segments queued and allowed to run
 bool stepper_held();     // a hold reached rest
 bool stepper_holding();  // a hold was requested and not resumed

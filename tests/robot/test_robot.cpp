@@ -312,6 +312,95 @@ TEST_F(RobotTest, FaultsLostStepsAndACutLinkAreVisible) {
   EXPECT_EQ(robot.request("PI=10=\n", 20.0).value_or(""), "AK=PI=10=") << "link back";
 }
 
+// Sends TB=n= and the first `count` points of `pts`, each after the previous one's AK (the
+// queue holds 15, so up to 15 points go without waiting for credit); then the host falls
+// silent, as a hub that gave up, was killed or lost its link does.
+void load_and_abandon(Robot& r, const std::vector<Point>& pts, int count) {
+  ASSERT_EQ(r.request("TB=" + std::to_string(pts.size()) + "=\n").value_or(""), "AK=TB=15=");
+  for (int k = 0; k < count; ++k) {
+    auto ak = r.request(tp(k, pts[static_cast<std::size_t>(k)]));
+    ASSERT_TRUE(ak && ak->rfind("AK=TP=", 0) == 0) << "point " << k << ": " << ak.value_or("");
+  }
+}
+
+// The robot at rest (two reports 50 ms of emulated time apart agree and the moving flag is
+// clear), its truth at the given steps.
+void expect_at_rest_at(Robot& r, const std::array<std::int32_t, 3>& steps) {
+  std::optional<Report> st;
+  for (int i = 0; i < 400; ++i) {
+    st = r.query_state();
+    ASSERT_TRUE(st);
+    if ((st->flags() & 2) == 0) break;
+  }
+  EXPECT_EQ(st->flags() & 2, 0) << "still moving";
+  const Truth t = r.truth();
+  EXPECT_EQ(t.i("z"), steps[0]);
+  EXPECT_EQ(t.i("j2"), steps[1]);
+  EXPECT_EQ(t.i("j3"), steps[2]);
+}
+
+// A host that gives up on a trajectory (a cut link, a killed or interrupted hub) must never
+// lock the robot. The firmware runs the points it has and stops by itself when they run out
+// (EV 5, at rest at the last point it got); then TB, HM and JG each take over from the
+// abandoned trajectory (issue 17: all three were refused as busy until '!' or SP).
+TEST_F(RobotTest, AnAbandonedTrajectoryStopsByItselfAndNeverLocksTheRobot) {
+  ASSERT_TRUE(robot.home());
+  const auto pts = plan_points({0.10, 0.8, -0.6, 0.5}, 5.0);
+  ASSERT_GE(pts.size(), 30u);
+  // the link is cut right after 15 points (the queue is full, so they run): the robot
+  // stops at point 14 on its own, its underrun event lost in the cut
+  ASSERT_NO_FATAL_FAILURE(load_and_abandon(robot, pts, 15));
+  const auto cut_from = robot.truth().u("sim_us");
+  ASSERT_EQ(robot.side("cut 3000"), "OK cut 3000");
+  while (robot.truth().u("sim_us") < cut_from + 3200000) {
+    while (robot.line(0.01)) {
+    }
+  }
+  ASSERT_NO_FATAL_FAILURE(expect_at_rest_at(robot, pts[14].steps));
+  auto st = robot.query_state();
+  ASSERT_TRUE(st);
+  EXPECT_EQ(st->flags() & 4, 4) << "the trajectory waits for its next point";
+  // a new trajectory replaces it (TB clears the queue)
+  EXPECT_EQ(robot.request("TB=2=\n").value_or(""), "AK=TB=15=");
+  // that one is abandoned too, before any point: homing takes over from it
+  EXPECT_EQ(robot.request("HM=\n").value_or(""), "AK=HM=");
+  ASSERT_TRUE(robot.wait_for("EV=1=", 60.0));
+  // abandoned once more, this time with an underrun the host hears of; a jog takes over
+  ASSERT_NO_FATAL_FAILURE(load_and_abandon(robot, pts, 15));
+  EXPECT_EQ(robot.wait_for("EV=5=", 20.0).value_or(""), "EV=5=15=");
+  ASSERT_NO_FATAL_FAILURE(expect_at_rest_at(robot, pts[14].steps));
+  EXPECT_EQ(robot.request("JG=1=100=\n").value_or(""), "AK=JG=");
+  for (int i = 0; i < 400; ++i) {
+    auto r = robot.query_state();
+    ASSERT_TRUE(r);
+    if (r->j2() == pts[14].steps[1] + 100 && (r->flags() & 2) == 0) break;
+  }
+  EXPECT_EQ(robot.truth().i("j2"), pts[14].steps[1] + 100) << "the jog ran";
+  // and a whole trajectory runs after homing again
+  ASSERT_TRUE(robot.home());
+  ASSERT_TRUE(load_trajectory(robot, pts));
+  EXPECT_EQ(robot.wait_for("EV=3=", 60.0).value_or(""), "EV=3=" + std::to_string(pts.size()) + "=");
+  ASSERT_NO_FATAL_FAILURE(expect_at_rest_at(robot, pts.back().steps));
+}
+
+// HM recovers from a hold ('#') too: the held trajectory is dropped and the robot homes
+// (it was refused with 14 until '~' or '!').
+TEST_F(RobotTest, HomingRecoversFromAHeldTrajectory) {
+  ASSERT_TRUE(robot.home());
+  const auto pts = plan_points({0.10, 0.8, -0.6, 0.5}, 5.0);
+  ASSERT_TRUE(load_trajectory(robot, pts));
+  robot.send("#");
+  ASSERT_TRUE(robot.wait_for("EV=7=", 20.0));
+  EXPECT_EQ(robot.request("HM=\n").value_or(""), "AK=HM=");
+  ASSERT_TRUE(robot.wait_for("EV=1=", 60.0));
+  ASSERT_NO_FATAL_FAILURE(expect_at_rest_at(robot, {24667, 0, 0}));
+  auto st = robot.query_state();
+  ASSERT_TRUE(st);
+  EXPECT_EQ(st->flags() & (4 | 8 | 16), 0) << "no trajectory, hold or halt left";
+  ASSERT_TRUE(load_trajectory(robot, pts));
+  EXPECT_TRUE(robot.wait_for("EV=3=", 60.0));
+}
+
 // Homing from a pose where J3 is already past its switch (as after J2 homed from some poses,
 // the belt coupling turning J3 with it): the firmware runs it off the switch, then homes.
 TEST(RobotStart, HomingStartsFromBeyondASwitch) {
