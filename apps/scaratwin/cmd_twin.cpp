@@ -1,12 +1,16 @@
 // The control statements at the command line (`scaratwin move X Y Z`, `grip`, `spawn red X Y`,
 // `mirror --seconds N`, ...) and `scaratwin run FILE`, against a running simulator and robot.
+#include <pthread.h>
+#include <signal.h>
 #include <unistd.h>
 
+#include <atomic>
 #include <cerrno>
 #include <cstdio>
 #include <cstring>
 #include <fstream>
 #include <sstream>
+#include <thread>
 
 #include <fmt/format.h>
 
@@ -30,6 +34,56 @@ struct StatementArgs {
   std::vector<std::string> words;
   std::string file;
   double seconds = 5.0;
+};
+
+// Ctrl-C (SIGINT) and SIGTERM while a hub runs: the first stops the robot and fails the
+// statement in progress (Hub::interrupt(), exit status 130); a second one, or one before the
+// hub is connected, ends the process at once. The signals are blocked in every thread and
+// taken by a watcher thread with sigtimedwait(), so the stop runs as ordinary code.
+constexpr int kExitInterrupted = 130;
+
+class InterruptWatcher {
+ public:
+  InterruptWatcher() {
+    sigemptyset(&set_);
+    sigaddset(&set_, SIGINT);
+    sigaddset(&set_, SIGTERM);
+    // before the hub's threads start, so that they inherit the mask
+    pthread_sigmask(SIG_BLOCK, &set_, &old_);
+    thread_ = std::thread([this] { watch(); });
+  }
+  ~InterruptWatcher() {
+    done_ = true;
+    thread_.join();
+    pthread_sigmask(SIG_SETMASK, &old_, nullptr);
+  }
+  InterruptWatcher(const InterruptWatcher&) = delete;
+  InterruptWatcher& operator=(const InterruptWatcher&) = delete;
+
+  void attach(Hub* hub) { hub_ = hub; }
+  void detach() { hub_ = nullptr; }
+  bool fired() const { return fired_; }
+
+ private:
+  void watch() {
+    const timespec tick{0, 100'000'000};
+    while (!done_) {
+      const int sig = sigtimedwait(&set_, nullptr, &tick);
+      if (sig < 0) continue;
+      Hub* hub = hub_;
+      if (hub == nullptr || fired_) _exit(kExitInterrupted);
+      fired_ = true;
+      std::fprintf(stderr, "scaratwin: interrupted: stopping the robot\n");
+      hub->interrupt();
+    }
+  }
+
+  sigset_t set_{};
+  sigset_t old_{};
+  std::atomic<Hub*> hub_{nullptr};
+  std::atomic<bool> done_{false};
+  std::atomic<bool> fired_{false};
+  std::thread thread_;
 };
 
 void add_link_options(CLI::App& cmd, LinkArgs& l) {
@@ -79,18 +133,21 @@ int with_hub(const CommonOptions& common, const LinkArgs& l, const std::string& 
     }
     db = std::move(*d);
   }
+  InterruptWatcher watcher;
   auto hub = Hub::connect(*model, o, db.get());
   if (!hub) {
     std::fprintf(stderr, "scaratwin %s: %s\n", kind.c_str(), hub.error().message.c_str());
     return kExitFailure;
   }
+  watcher.attach(hub->get());
   (void)(*hub)->begin_run(kind, label);
   (*hub)->set_mirror(true);
   Status s = body(**hub);
   (void)(*hub)->end_run(s.ok());
+  watcher.detach();
   if (!s) {
     std::fprintf(stderr, "scaratwin %s: %s\n", kind.c_str(), s.error().message.c_str());
-    return kExitFailure;
+    return watcher.fired() ? kExitInterrupted : kExitFailure;
   }
   return kExitOk;
 }
@@ -146,6 +203,7 @@ void add_statement_commands(CLI::App& app, CommonOptions& common, Runner& run) {
   };
   static constexpr Spec kSpecs[] = {
       {"home", "home the physical robot against its endstops", nullptr},
+      {"stop", "stop the physical robot at once (halted until the next home or motion)", nullptr},
       {"move", "move the tool to X Y Z (m) [YAW (deg)]; the virtual robot follows", "X Y Z [YAW]"},
       {"line", "move the tool in a straight line to X Y Z (m) [YAW (deg)]", "X Y Z [YAW]"},
       {"movej", "move the joints to D1 (m) Q2 Q3 Q4 (deg)", "D1 Q2 Q3 Q4"},

@@ -26,6 +26,8 @@ namespace {
 // two reports, short enough not to confuse a descent with the lift that comes back up.
 constexpr double kDesyncWindowS = 1.5;
 
+constexpr const char* kInterrupted = "interrupted";
+
 }  // namespace
 
 Hub::Hub(const RobotModel& model, const HubOptions& options, TwinDb* db)
@@ -287,9 +289,10 @@ PhysicalState Hub::physical() const {
 Result<PhysicalState> Hub::fresh_physical(double timeout_s) {
   std::unique_lock<std::mutex> lock(mu_);
   const std::uint64_t n = state_count_;
-  if (!cv_.wait_for(lock, ms(timeout_s), [&] { return state_count_ > n; })) {
+  if (!cv_.wait_for(lock, ms(timeout_s), [&] { return state_count_ > n || interrupted_; })) {
     return hub_error(fmt::format("no state report from the robot within {} s", timeout_s));
   }
+  if (interrupted_) return hub_error(kInterrupted);
   return physical_;
 }
 
@@ -308,6 +311,7 @@ Result<pr::DeviceEvent> Hub::wait_event(std::initializer_list<pr::DeviceEventCod
   std::unique_lock<std::mutex> lock(mu_);
   std::optional<pr::DeviceEvent> found;
   const auto pred = [&] {
+    if (interrupted_) return true;
     for (const auto& [n, ev] : events_) {
       if (n > after && std::find(codes.begin(), codes.end(), ev.event) != codes.end()) {
         found = ev;
@@ -320,19 +324,60 @@ Result<pr::DeviceEvent> Hub::wait_event(std::initializer_list<pr::DeviceEventCod
     return hub_error(fmt::format("robot: event {} did not come within {:.0f} s",
                                  static_cast<int>(*codes.begin()), timeout_s));
   }
+  if (!found) return hub_error(kInterrupted);
   return *found;
 }
 
-Status Hub::wait_idle(double timeout_s) {
+Status Hub::wait_flags(const std::function<bool(std::uint32_t)>& done, double timeout_s) {
   std::unique_lock<std::mutex> lock(mu_);
   const std::uint64_t n = state_count_;
-  const auto idle = [&] {
-    return state_count_ > n &&
-           (physical_.raw.flags & (pr::state_flags::kMoving | pr::state_flags::kTrajectory)) == 0;
-  };
-  if (!cv_.wait_for(lock, ms(timeout_s), idle)) {
+  const auto pred = [&] { return interrupted_ || (state_count_ > n && done(physical_.raw.flags)); };
+  if (!cv_.wait_for(lock, ms(timeout_s), pred)) {
     return hub_error(fmt::format("the robot is still moving after {:.0f} s", timeout_s));
   }
+  if (interrupted_) return hub_error(kInterrupted);
+  return Ok{};
+}
+
+Status Hub::wait_idle(double timeout_s) {
+  return wait_flags(
+      [](std::uint32_t f) {
+        return (f & (pr::state_flags::kMoving | pr::state_flags::kTrajectory)) == 0;
+      },
+      timeout_s);
+}
+
+Status Hub::wait_motors_at_rest(double timeout_s) {
+  // a hold at rest reports "moving" (its segment is not finished)
+  return wait_flags(
+      [](std::uint32_t f) {
+        return (f & pr::state_flags::kMoving) == 0 || (f & pr::state_flags::kHold) != 0;
+      },
+      timeout_s);
+}
+
+Status Hub::recover() {
+  auto now = fresh_physical(2.0);
+  if (!now) return now.error();
+  namespace f = pr::state_flags;
+  const std::uint32_t flags = now->raw.flags;
+  const bool held = (flags & f::kHold) != 0;
+  const bool abandoned = (flags & f::kTrajectory) != 0 && (flags & f::kMoving) == 0;
+  if (!held && !abandoned && (flags & f::kHalted) == 0) return Ok{};
+  if (held || abandoned) {
+    if (Status s = stop(); !s) return s;
+  }
+  std::uint64_t mark;
+  {
+    std::lock_guard<std::mutex> lock(mu_);
+    mark = event_count_;
+  }
+  if (Status s = robot_->send_realtime(pr::Realtime::kResume); !s) return s;
+  auto ev = wait_event(pr::DeviceEventCode::kResumed, options_.reply_timeout_s, mark);
+  if (!ev) return hub_error(fmt::format("robot: clearing the halt: {}", ev.error().message));
+  record_event("robot", held        ? "a hold left by an earlier motion was stopped and cleared"
+                        : abandoned ? "a trajectory left by an earlier host was stopped"
+                                    : "the halt after a stop was cleared");
   return Ok{};
 }
 
@@ -342,6 +387,9 @@ Status Hub::home(double timeout_s) {
     std::lock_guard<std::mutex> lock(mu_);
     mark = event_count_;
   }
+  // homing starts from rest: a move that a host which gave up left running out its queue
+  // ends first (HM then drops what it left)
+  if (Status s = wait_motors_at_rest(60.0); !s) return s;
   if (Status s = check("home", robot_->request(pr::Home{}, milliseconds(1000))); !s) return s;
   auto ev = wait_event({pr::DeviceEventCode::kHomed, pr::DeviceEventCode::kHomingFailed}, timeout_s,
                        mark);
@@ -406,8 +454,46 @@ Status Hub::set_setting(int key, int value) {
   return check("CF", robot_->request(pr::Config{key, value}, milliseconds(1000)));
 }
 
-Status Hub::stop() {
-  if (Status s = robot_->send_realtime(pr::Realtime::kStop); !s) return s;
+Status Hub::stop(double timeout_s) {
+  std::uint64_t mark;
+  {
+    std::lock_guard<std::mutex> lock(mu_);
+    mark = event_count_;
+  }
+  if (Status s = robot_->send_realtime(pr::Realtime::kStop); !s) {
+    return hub_error(fmt::format("robot stop: {}", s.error().message));
+  }
+  // the confirmation is waited for even when interrupted: interrupt() calls this
+  std::unique_lock<std::mutex> lock(mu_);
+  const auto stopped = [&] {
+    for (const auto& [n, ev] : events_) {
+      if (n > mark && ev.event == pr::DeviceEventCode::kStopped) return true;
+    }
+    return false;
+  };
+  if (!cv_.wait_for(lock, ms(timeout_s), stopped)) {
+    return hub_error(fmt::format(
+        "robot stop: not confirmed within {:.1f} s (link cut or robot gone); a robot that "
+        "hears nothing from its host stops by itself when its queued points run out",
+        timeout_s));
+  }
+  return Ok{};
+}
+
+void Hub::interrupt() {
+  interrupted_ = true;
+  {
+    std::lock_guard<std::mutex> lock(mu_);
+    cv_.notify_all();
+  }
+  const Status s = stop();
+  record_event("interrupted", s ? "the robot stopped" : s.error().message);
+}
+
+Status Hub::sleep(double seconds) {
+  std::unique_lock<std::mutex> lock(mu_);
+  cv_.wait_for(lock, ms(seconds), [&] { return interrupted_.load(); });
+  if (interrupted_) return hub_error(kInterrupted);
   return Ok{};
 }
 
@@ -422,8 +508,11 @@ Result<int> Hub::run_trajectory(const JointTrajectory& traj, double timeout_s) {
     return hub_error(
         fmt::format("trajectory refused before anything moved: {}", s.error().message));
   }
-  // a trajectory starts from rest: let a jog or the previous move finish.
-  if (Status s = wait_idle(60.0); !s) return s.error();
+  // a trajectory starts from rest: let a jog or the previous move finish (also one that a
+  // host that gave up left running out its queue), clear what it left, start.
+  if (Status s = wait_motors_at_rest(60.0); !s) return s.error();
+  if (Status s = recover(); !s) return s.error();
+  if (Status s = wait_idle(10.0); !s) return s.error();
   std::uint64_t mark;
   {
     std::lock_guard<std::mutex> lock(mu_);
@@ -451,16 +540,21 @@ Result<int> Hub::run_trajectory(const JointTrajectory& traj, double timeout_s) {
     }
     if (keep) sent.samples.push_back(smp);
   }
-  auto load = statements_->load_trajectory(sent);
-  if (!load) {
+  // whatever ends the trajectory early stops the robot first, so that it never keeps a
+  // trajectory its host gave up on
+  const auto give_up = [&](const std::string& what) -> Error {
     clear_tracker();
-    (void)stop();
-    return hub_error(fmt::format("robot trajectory load: {}", load.error().message));
-  }
+    const Status stopped = stop();
+    return hub_error(fmt::format(
+        "{}; {}", what, stopped ? std::string("the robot was stopped") : stopped.error().message));
+  };
+  auto load = statements_->load_trajectory(sent);
+  if (interrupted_) return give_up(kInterrupted);
+  if (!load) return give_up(fmt::format("robot trajectory load: {}", load.error().message));
   const double wait_s = timeout_s > 0 ? timeout_s : traj.duration_s() + 15.0;
   auto done = wait_event(pr::DeviceEventCode::kTrajectoryDone, wait_s, mark);
+  if (!done) return give_up(done.error().message);
   clear_tracker();
-  if (!done) return done.error();
   return load->points;
 }
 

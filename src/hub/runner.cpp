@@ -1,8 +1,6 @@
 #include "scaratwin/hub/runner.hpp"
 
-#include <chrono>
 #include <fstream>
-#include <thread>
 
 #include <fmt/format.h>
 
@@ -31,6 +29,10 @@ Result<std::string> execute_one(Hub& hub, const Statement& st) {
   const RobotModel& model = hub.model();
   const auto& v = st.numbers;
   switch (st.kind) {
+    case StatementKind::kStop: {
+      if (Status s = hub.stop(); !s) return s.error();
+      return std::string("stopped (halted until the next home or motion)");
+    }
     case StatementKind::kHome: {
       if (Status s = hub.home(); !s) return s.error();
       return std::string("homed");
@@ -57,7 +59,7 @@ Result<std::string> execute_one(Hub& hub, const Statement& st) {
       const bool close = st.kind == StatementKind::kGrip;
       if (Status s = hub.set_gripper(close); !s) return s.error();
       // give the servo and the mirror time to follow.
-      std::this_thread::sleep_for(std::chrono::milliseconds(400));
+      if (Status s = hub.sleep(0.4); !s) return s.error();
       return std::string(close ? "gripper closed" : "gripper open");
     }
     case StatementKind::kShoot: {
@@ -105,12 +107,12 @@ Result<std::string> execute_one(Hub& hub, const Statement& st) {
       return fmt::format("{} cubes: {}", items->size(), *r);
     }
     case StatementKind::kWait:
-      std::this_thread::sleep_for(std::chrono::duration<double>(v[0]));
+      if (Status s = hub.sleep(v[0]); !s) return s.error();
       return fmt::format("waited {} s", v[0]);
     case StatementKind::kMirror: {
       hub.set_mirror(true);
       const MirrorCounters before = hub.mirror_counters();
-      std::this_thread::sleep_for(std::chrono::duration<double>(v[0]));
+      if (Status s = hub.sleep(v[0]); !s) return s.error();
       const MirrorCounters after = hub.mirror_counters();
       return fmt::format("{} frames mirrored, {} lost, mean latency {:.2f} ms",
                          after.applied - before.applied, after.lost - before.lost,

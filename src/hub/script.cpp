@@ -35,6 +35,7 @@ constexpr Spec kSpecs[] = {
     {"sort", StatementKind::kSort, 0, 0, "sort"},
     {"wait", StatementKind::kWait, 1, 1, "wait SECONDS"},
     {"mirror", StatementKind::kMirror, 1, 1, "mirror SECONDS"},
+    {"stop", StatementKind::kStop, 0, 0, "stop"},
 };
 
 // Errors carry the bare message; the callers add "line N:" or "file:N:".

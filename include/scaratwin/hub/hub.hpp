@@ -118,16 +118,34 @@ class Hub {
   HomingCheck last_homing() const;
   // Waits until a state report shows the robot at rest (no jog, no trajectory).
   Status wait_idle(double timeout_s);
+  // Prepares the robot for a new motion after whatever an earlier one left: a hold, a stop
+  // (halted), a trajectory at rest whose host gave up (killed, interrupted, link cut). Stops
+  // such a leftover for good and clears the halt ('!' then '~'); does nothing otherwise.
+  Status recover();
   // Loads `trajectory` (its first sample must be the robot's current pose) with credit flow
   // control (the numberTran3 statement) and waits until the robot reports it done. Gripper
   // events become the points' gripper angles. Each state report is checked against the plan
-  // for the desync alarm while it runs. Returns the number of points run.
+  // for the desync alarm while it runs. Returns the number of points run. Whatever ends it
+  // early (a refusal, no progress, a lost link, a timeout, interrupt()) stops the robot
+  // before the error returns; the error says whether the robot confirmed the stop.
   Result<int> run_trajectory(const JointTrajectory& trajectory, double timeout_s = 0.0);
   Status set_gripper(bool closed);
   Status jog(protocol::Axis axis, double delta);
   // Writes one of the robot's settings (CF: key and value as docs/protocol.md lists them).
   Status set_setting(int key, int value);
-  Status stop();
+  // The stop statement: stops the robot at once ('!': the queue dropped, the step pulses end
+  // within 50 us) and waits until it confirms (EV 6). It is then halted: home() or the next
+  // trajectory (recover()) clears that. Fails when no confirmation comes within `timeout_s`
+  // (the link is cut, or the robot is gone); a robot that hears nothing from its host stops
+  // by itself when its queue of points runs out (15 points: 0.3 s to a few seconds).
+  Status stop(double timeout_s = 1.0);
+  // Ctrl-C: stops the robot and makes the statement in progress (and every later wait of
+  // this hub: trajectories, homing, sleep()) fail at once with "interrupted". Safe from any
+  // thread (not from a signal handler).
+  void interrupt();
+  bool interrupted() const { return interrupted_.load(); }
+  // Waits `seconds`, or until interrupt().
+  Status sleep(double seconds);
   // Desync alarms raised during trajectories since connect.
   int desync_alarms() const { return desync_alarms_.load(); }
   // Farthest the robot's reported tool was from the planned path during the last (or the
@@ -170,6 +188,10 @@ class Hub {
   Result<protocol::DeviceEvent> wait_event(std::initializer_list<protocol::DeviceEventCode> codes,
                                            double timeout_s, std::uint64_t after);
   Status check(const char* what, Result<transport::RobotChannel::Reply> r);
+  // Waits for a state report whose flags satisfy `done` (fails when interrupted).
+  Status wait_flags(const std::function<bool(std::uint32_t)>& done, double timeout_s);
+  // Waits until no motor runs (a hold at rest counts as at rest).
+  Status wait_motors_at_rest(double timeout_s);
 
   RobotModel model_;
   HubOptions options_;
@@ -197,7 +219,8 @@ class Hub {
   // progress along the trajectory being run, for the desync alarm
   std::optional<PlanTracker> tracker_;
   std::atomic<int> desync_alarms_{0};  // over every trajectory run
-  DesyncMonitor desync_{0.0, 1};       // the current trajectory's, reset when it starts
+  std::atomic<bool> interrupted_{false};
+  DesyncMonitor desync_{0.0, 1};  // the current trajectory's, reset when it starts
   HomingCheck last_homing_;
 };
 

@@ -4,6 +4,7 @@
 //
 //   # comment                      blank lines are ignored
 //   home                           home the physical robot
+//   stop                           stop the physical robot at once (it is then halted)
 //   move X Y Z [YAW]               tool to a pose (IK, nearest elbow, planned in joint space)
 //   line X Y Z [YAW]               tool in a straight line
 //   movej D1 Q2 Q3 Q4              joints (m, deg)
@@ -40,6 +41,7 @@ enum class StatementKind {
   kSort,
   kWait,
   kMirror,
+  kStop,
 };
 
 struct Statement {
