@@ -74,7 +74,17 @@ struct SimServer::Impl {
     put(out, proto::PeerHello{core::kProtocolVersion, kDeviceName, kSoftwareVersion});
   }
   void on(std::string& out, const proto::Ping& m) { put(out, proto::Ack{"PI", m.token}); }
+  // A JD/TJ with a joint no robot can have (implausible_joint()) is refused with one
+  // ER,11,<field index> (d1 is field 2) and nothing is applied.
+  bool refuse_implausible(std::string& out, const JointVector& q) {
+    const int j =
+        world.with_simulation([&](Simulation& s) { return implausible_joint(s.robot(), q); });
+    if (j < 0) return false;
+    error(out, core::kErrBadValue, 2 + j);
+    return true;
+  }
   void on(std::string& out, const proto::JointData& m) {
+    if (refuse_implausible(out, m.q)) return;
     auto r = world.with_simulation([&](Simulation& s) { return s.set_joints(m.q); });
     reply_joint(out, r, m.seq, m.t_us, m.q);
   }
@@ -82,6 +92,7 @@ struct SimServer::Impl {
     // paced: a servo target now; --speed max: a timed target of a prediction stream, played
     // in lockstep as fast as possible (t_us offsets from the stream's first target)
     const bool stream = world.options().speed == 0.0;
+    if (refuse_implausible(out, m.q)) return;
     auto r = world.with_simulation([&](Simulation& s) {
       if (!stream) return s.hold(m.q);
       if (!s.stream_open()) stream_first_us = m.t_us;

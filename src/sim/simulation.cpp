@@ -22,6 +22,16 @@ bool finite(const JointVector& q) {
   return std::all_of(q.begin(), q.end(), [](double v) { return std::isfinite(v); });
 }
 
+Error implausible(const RobotModel& robot, const JointVector& q, int j) {
+  const JointLimit& l = robot.limits[static_cast<std::size_t>(j)];
+  const double span = l.max - l.min;
+  return sim_error(
+      SimError::kBadArgument,
+      fmt::format("joint {} = {} is not a value the robot can have (its limits are "
+                  "{} .. {}; values beyond {} .. {} are refused)",
+                  j + 1, q[static_cast<std::size_t>(j)], l.min, l.max, l.min - span, l.max + span));
+}
+
 // Linear interpolation of position and velocity; `hint` speeds up monotonic queries.
 void sample(const JointTrajectory& t, double t_s, std::size_t& hint, JointVector& q,
             JointVector& qd) {
@@ -48,6 +58,16 @@ void sample(const JointTrajectory& t, double t_s, std::size_t& hint, JointVector
 }
 
 }  // namespace
+
+int implausible_joint(const RobotModel& robot, const JointVector& q) {
+  for (int j = 0; j < kNumJoints; ++j) {
+    const JointLimit& l = robot.limits[static_cast<std::size_t>(j)];
+    const double span = l.max - l.min;
+    const double v = q[static_cast<std::size_t>(j)];
+    if (!std::isfinite(v) || v < l.min - span || v > l.max + span) return j;
+  }
+  return -1;
+}
 
 const char* mode_name(Mode mode) { return mode == Mode::kMirror ? "mirror" : "simulate"; }
 
@@ -232,7 +252,7 @@ std::vector<JointWarning> Simulation::note_limits(const JointVector& q) {
 }
 
 Result<std::vector<JointWarning>> Simulation::set_joints(const JointVector& q) {
-  if (!finite(q)) return sim_error(SimError::kBadArgument, "joint values must be finite");
+  if (const int j = implausible_joint(robot_, q); j >= 0) return implausible(robot_, q, j);
   if (mode_ != Mode::kMirror) {
     return sim_error(SimError::kWrongMode,
                      "joint data are applied in mirror mode; the simulator is in simulate mode");
@@ -303,7 +323,7 @@ Result<std::vector<JointWarning>> Simulation::follow(const JointTrajectory& t) {
 }
 
 Result<std::vector<JointWarning>> Simulation::hold(const JointVector& q) {
-  if (!finite(q)) return sim_error(SimError::kBadArgument, "joint values must be finite");
+  if (const int j = implausible_joint(robot_, q); j >= 0) return implausible(robot_, q, j);
   if (mode_ != Mode::kSimulate) {
     return sim_error(SimError::kWrongMode, "hold is a simulate-mode command");
   }
@@ -317,6 +337,7 @@ Result<std::vector<JointWarning>> Simulation::stream_target(double t_s, const Jo
   if (!std::isfinite(t_s) || !finite(q)) {
     return sim_error(SimError::kBadArgument, "stream target time and joints must be finite");
   }
+  if (const int j = implausible_joint(robot_, q); j >= 0) return implausible(robot_, q, j);
   if (mode_ != Mode::kSimulate) {
     return sim_error(SimError::kWrongMode, "joint targets are followed in simulate mode");
   }

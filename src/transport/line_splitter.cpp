@@ -13,13 +13,14 @@ LineSplitter::LineSplitter(SplitterOptions options) : options_(std::move(options
 void LineSplitter::reset() {
   line_.clear();
   overflow_ = false;
+  discarding_ = false;
   payload_remaining_ = 0;
   skipping_ = false;
   pending_ = Frame{};
 }
 
 bool LineSplitter::mid_frame() const {
-  return !line_.empty() || overflow_ || payload_remaining_ > 0;
+  return !line_.empty() || overflow_ || discarding_ || payload_remaining_ > 0;
 }
 
 long long LineSplitter::binary_header_bytes(std::string_view line) const {
@@ -98,14 +99,35 @@ void LineSplitter::feed(std::string_view bytes, const Sink& sink) {
     const char* nl =
         static_cast<const char*>(std::memchr(p, '\n', static_cast<std::size_t>(end - p)));
     const char* stop = nl ? nl : end;
+    if (discarding_) {
+      // the rest of a line already reported as overlong
+      p = nl ? nl + 1 : end;
+      discarding_ = nl == nullptr;
+      continue;
+    }
     // keep at most max_line_bytes + 1 bytes (room for a final '\r'); beyond that only note
-    // the overflow and skip to the newline
+    // the overflow
     std::size_t room =
         options_.max_line_bytes + 1 - std::min(line_.size(), options_.max_line_bytes + 1);
     std::size_t take = std::min(room, static_cast<std::size_t>(stop - p));
     line_.append(p, take);
     if (take < static_cast<std::size_t>(stop - p)) overflow_ = true;
     p = stop;
+    // overlong as soon as the limit is passed (a byte after max_line_bytes that is not the
+    // final '\r'), not only at its newline: reported now, the rest skipped up to the newline
+    const bool overlong =
+        overflow_ || (line_.size() > options_.max_line_bytes && line_.back() != '\r');
+    if (overlong) {
+      Frame frame;
+      frame.kind = FrameKind::kOverlong;
+      frame.line = line_.substr(0, options_.max_line_bytes);
+      line_.clear();
+      overflow_ = false;
+      discarding_ = nl == nullptr;
+      if (nl) ++p;
+      sink(std::move(frame));
+      continue;
+    }
     if (nl) {
       ++p;
       finish_line(sink);

@@ -152,6 +152,52 @@ TEST_F(SimServerTest, MalformedPacketsGetErrorsAndLeaveTheSceneUntouched) {
   EXPECT_EQ(lines(1), std::vector<std::string>{"AK,PI,1,"});
 }
 
+// A joint value no robot can have (1000 km up) is refused with exactly one reply, nothing is
+// applied, and the next lines (QS among them) are answered as usual; a value just off the
+// limits is still mirrored (a robot off its limits is shown as it is).
+TEST_F(SimServerTest, ImpossibleJointValueIsRefusedWithOneReplyAndNothingApplied) {
+  ASSERT_TRUE(client_->send("JD,1,0,80,10,20,30,\n").ok());
+  ASSERT_EQ(lines(1)[0].rfind("JA,1,", 0), 0u);
+  const Snapshot before = world_->snapshot();
+  ASSERT_TRUE(client_
+                  ->send("JD,1,2,999999999.999999,0,0,0,\nQS,\nJD,3,4,80,-999999,0,0,\n"
+                         "JD,5,6,80,0,0,400000,\nMD,simulate,\nTJ,7,8,80,0,999999,0,\n"
+                         "MD,mirror,\nPI,9,\n")
+                  .ok());
+  const auto r = lines(8);
+  ASSERT_EQ(r.size(), 8u);
+  EXPECT_EQ(r[0], "ER,11,2,");
+  EXPECT_EQ(r[1].rfind("ST,", 0), 0u) << r[1];
+  EXPECT_NE(r[1].find(",80,10,20,30,"), std::string::npos) << r[1];
+  EXPECT_EQ(r[2], "ER,11,3,");
+  EXPECT_EQ(r[3], "ER,11,5,");
+  EXPECT_EQ(r[4], "AK,MD,");
+  EXPECT_EQ(r[5], "ER,11,4,");
+  EXPECT_EQ(r[6], "AK,MD,");
+  EXPECT_EQ(r[7], "AK,PI,9,") << "one reply per line";
+  EXPECT_FALSE(client_->receive(Duration(200)).ok()) << "an extra reply";
+  EXPECT_EQ(world_->snapshot().joints, before.joints);
+  EXPECT_EQ(world_->snapshot().warnings_total, before.warnings_total);
+  // just beyond a limit (q2 limit 115 deg): mirrored, with its warning
+  ASSERT_TRUE(client_->send("JD,10,0,80,300,0,0,\nQS,\n").ok());
+  const auto ok = lines(3);
+  ASSERT_EQ(ok.size(), 3u);
+  EXPECT_EQ(ok[0], "JW,2,300,");
+  EXPECT_EQ(ok[1].rfind("JA,10,", 0), 0u) << ok[1];
+  EXPECT_NE(ok[2].find(",80,300,0,0,"), std::string::npos) << ok[2];
+}
+
+// A line longer than the link's 512 bytes is refused when the limit is passed, not only at
+// its newline (which a hostile or broken peer may never send); the link then resyncs.
+TEST_F(SimServerTest, OverlongLineIsRefusedAtTheLimitBeforeItsNewline) {
+  ASSERT_TRUE(client_->send(std::string(600, 'J')).ok());
+  const auto r = lines(1);
+  ASSERT_EQ(r.size(), 1u);
+  EXPECT_EQ(r[0], "ER,1,512,");
+  ASSERT_TRUE(client_->send(std::string(100, 'J') + "\nPI,3,\n").ok());
+  EXPECT_EQ(lines(1), std::vector<std::string>{"AK,PI,3,"});
+}
+
 TEST_F(SimServerTest, JointLimitWarningComesBeforeTheReply) {
   const std::string reply = server_->handle_line("JD,4,0,80,130,0,0,");
   EXPECT_EQ(reply.rfind("JW,2,130,\nJA,4,", 0), 0u) << reply;

@@ -67,6 +67,14 @@ struct CubeState {
   bool held = false;  // welded to the gripper
 };
 
+// Joint values no robot of this description can have: beyond a joint's limits by more than
+// the joint's whole range (max - min) on either side, or not finite. For the default robot:
+// d1 outside -0.10 .. 0.23 m, q2 outside -325 .. 335 deg, q3 outside -355 .. 485 deg, q4
+// outside -180 .. 360 deg. Values between the limits and this bound are plausible (a robot
+// off its limits, mirrored as it is); values beyond it are garbage and refused. Returns the
+// first such joint (0..3), or -1 when every value is plausible.
+int implausible_joint(const RobotModel& robot, const JointVector& q);
+
 // A joint value outside its limit (the value is applied anyway in mirror mode).
 struct JointWarning {
   double time_s = 0.0;  // simulation time
@@ -115,7 +123,8 @@ class Simulation {
   // Switching to simulate holds the current joints; switching to mirror drops any trajectory.
   void set_mode(Mode mode);
   // Mirror: applies q at once (and at every step until the next call). Values outside their
-  // limits are applied and reported. Errors: not finite (nothing changes), simulate mode.
+  // limits are applied and reported. Errors: implausible (implausible_joint(): nothing
+  // changes), simulate mode.
   Result<std::vector<JointWarning>> set_joints(const JointVector& q);
   // Simulate: follows `trajectory` from now on (times relative to now), executing its gripper
   // events. Samples outside the limits are clamped by the servos and reported. Errors: empty,

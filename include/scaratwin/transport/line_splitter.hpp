@@ -3,7 +3,9 @@
 // line ("IM,<nbytes>,\n" followed by exactly nbytes raw bytes). LineSplitter cuts a stream
 // arriving in arbitrary chunks into those frames: any chunking of the same bytes gives the
 // same frames. It is bounded: a line longer than `max_line_bytes` is cut, reported once as
-// an overlong frame and the rest of it skipped up to the next newline (resync); a payload is
+// an overlong frame as soon as its length passes the limit (not only at its newline, so a
+// peer that never sends one still hears of it), and the rest of it skipped up to the next
+// newline (resync); a payload is
 // never longer than `max_payload_bytes`. It does not decode fields; the protocol codec does.
 // Pure: no I/O, no clock, no threads.
 #pragma once
@@ -70,6 +72,7 @@ class LineSplitter {
   SplitterOptions options_;
   std::string line_;
   bool overflow_ = false;
+  bool discarding_ = false;  // an overlong line was reported: skip to its newline
   std::size_t payload_remaining_ = 0;
   bool skipping_ = false;  // the payload being consumed is oversize: drop it
   Frame pending_;          // the binary frame being filled
