@@ -6,6 +6,7 @@
 
 #include <atomic>
 #include <chrono>
+#include <cstring>
 #include <deque>
 #include <filesystem>
 #include <fstream>
@@ -35,7 +36,8 @@ using asio::use_awaitable;
 
 constexpr std::size_t kMaxRequestBytes = 64 * 1024;
 constexpr std::size_t kMaxWsMessageBytes = 64 * 1024;
-constexpr std::size_t kMaxQueuedFrames = 2;  // state frames queued per slow browser
+constexpr std::size_t kMaxQueuedFrames = 2;            // state frames queued per slow browser
+constexpr std::chrono::milliseconds kAcceptRetry{50};  // after a failed accept (EMFILE, ...)
 
 std::string_view mime_type(const std::filesystem::path& path) {
   const std::string ext = path.extension().string();
@@ -194,12 +196,33 @@ struct WebServer::Impl {
     io.reset();  // destroys the pending coroutines and closes their sockets
   }
 
+  // Accepts connections. When accepting fails (out of file descriptors: EMFILE, ENFILE,
+  // ENOBUFS), the connection stays in the listen queue and an immediate retry would fail at
+  // once, spinning the io thread (and starving the simulator's own threads): wait
+  // kAcceptRetry between attempts instead, and say so once per episode.
   asio::awaitable<void> accept_loop() {
+    bool failing = false;
     for (;;) {
       beast::error_code ec;
       tcp::socket socket = co_await acceptor->async_accept(asio::redirect_error(use_awaitable, ec));
-      if (ec == asio::error::operation_aborted) co_return;
-      if (ec) continue;
+      if (ec == asio::error::operation_aborted || !acceptor->is_open()) co_return;
+      if (ec) {
+        if (!failing) {
+          failing = true;
+          std::fprintf(stderr,
+                       "scaratwin web: cannot accept a connection (%s); retrying every %d ms "
+                       "until it works\n",
+                       std::strerror(ec.value()), static_cast<int>(kAcceptRetry.count()));
+        }
+        asio::steady_timer pause(*io, kAcceptRetry);
+        co_await pause.async_wait(asio::redirect_error(use_awaitable, ec));
+        if (ec == asio::error::operation_aborted) co_return;
+        continue;
+      }
+      if (failing) {
+        failing = false;
+        std::fprintf(stderr, "scaratwin web: accepting connections again\n");
+      }
       asio::co_spawn(*io, serve(beast::tcp_stream(std::move(socket))), asio::detached);
     }
   }
