@@ -291,7 +291,7 @@ Result<DemoOutcome> run_phases(Hub& hub, TwinDb& db, const DemoArgs& a, std::int
           const double e = std::hypot(tr->tool[0] - f->target.x_m, tr->tool[1] - f->target.y_m,
                                       tr->tool[2] - f->target.z_m);
           out.control_error_mm.push_back(m_to_mm(e));
-          hub.record_metric("control_error_target_true_mm", m_to_mm(e), "mm");
+          hub.record_metric(metric::kControlErrTrueMm, m_to_mm(e), "mm");
           truth_text = fmt::format(", target->true tool {:.2f} mm", m_to_mm(e));
         }
       }
@@ -421,7 +421,7 @@ Result<DemoOutcome> run_phases(Hub& hub, TwinDb& db, const DemoArgs& a, std::int
       auto physical = inst.side->cubes();
       if (physical && !physical->empty()) {
         out.physical_in_trays = cubes_in_trays(model, *physical);
-        hub.record_metric("physical_cubes_in_trays", out.physical_in_trays, "cubes");
+        hub.record_metric(metric::kPhysicalCubesInTray, out.physical_in_trays, "cubes");
       }
     }
     if (inst.truth != nullptr) {
@@ -501,6 +501,14 @@ Result<DemoOutcome> run_phases(Hub& hub, TwinDb& db, const DemoArgs& a, std::int
                     1) -
                 1];
     out.virt_phys_along.max_m = along_m.back();
+    (void)db.add_metric(demo, metric::kVirtTrueMeanMm, m_to_mm(out.virt_phys_along.mean_m), "mm");
+    (void)db.add_metric(demo, metric::kVirtTrueMaxMm, m_to_mm(out.virt_phys_along.max_m), "mm");
+  }
+  if (out.steps_lost_truth) {
+    const auto& l = *out.steps_lost_truth;
+    (void)db.add_metric(demo, metric::kLostStepsTrue,
+                        static_cast<double>(std::llabs(l[0]) + std::llabs(l[1]) + std::llabs(l[2])),
+                        "steps");
   }
   return out;
 }

@@ -146,15 +146,16 @@ TEST(Demo, SortsEveryCubeAndRecordsTheTwin) {
   ASSERT_TRUE(phys && virt);
   EXPECT_GT(phys->size(), 1000u);
   EXPECT_GT(virt->size(), 1000u);
-  // homing again at the end: the switches found no step lost
+  // homing again at the end: the robot as built lost no step (the truth, checked with
+  // results.json below), and its switches, which close on the physical joints, find the
+  // counts within one step of that on each axis
   const int64_t rehome = by_kind["rehome"].id;
-  EXPECT_EQ(metric_of(**db, rehome, metric::kLostSteps), 0.0);
+  EXPECT_LE(metric_of(**db, rehome, metric::kLostSteps), 3.0);
   auto rehome_events = (*db)->events(rehome);
   ASSERT_TRUE(rehome_events);
   int checks = 0;
   for (const auto& [t, e] : *rehome_events) {
-    checks +=
-        e.rfind("homing: homing again: counts off the switches by Z 0, J2 0, J3 0 steps", 0) == 0;
+    checks += e.rfind("homing: homing again: counts off the switches by Z ", 0) == 0;
   }
   EXPECT_EQ(checks, 1);
   // the camera shot is kept.
@@ -167,6 +168,9 @@ TEST(Demo, SortsEveryCubeAndRecordsTheTwin) {
   for (size_t p = html.find("<svg"); p != std::string::npos; p = html.find("<svg", p + 1)) ++svgs;
   EXPECT_GE(svgs, 20u);
   EXPECT_NE(html.find("prediction vs physical replay"), std::string::npos);
+  // the figures against the truth, the three control targets side by side
+  EXPECT_NE(html.find("target vs the true tool"), std::string::npos);
+  EXPECT_EQ(metric_of(**db, by_kind["demo"].id, metric::kLostStepsTrue), 0.0);
   const fs::path replay_csv = out / "csv" / fmt::format("{}-replay", replay) / "samples.csv";
   ASSERT_TRUE(fs::exists(replay_csv)) << replay_csv;
   EXPECT_GT(fs::file_size(replay_csv), 10000u);

@@ -28,6 +28,13 @@ inline constexpr const char* kCubesInTray = "cubes_in_tray";
 inline constexpr const char* kDesyncAlarms = "desync_alarms";
 inline constexpr const char* kOffPlanMaxMm = "replay_off_plan_max_mm";
 inline constexpr const char* kLostSteps = "lost_steps";  // found by homing again, all axes
+// against the physical truth of the emulated robot as built (the emulator's measuring
+// instrument; never with a real board)
+inline constexpr const char* kControlErrTrueMm = "control_error_target_true_mm";
+inline constexpr const char* kVirtTrueMeanMm = "virtual_true_tool_mean_mm";
+inline constexpr const char* kVirtTrueMaxMm = "virtual_true_tool_max_mm";
+inline constexpr const char* kPhysicalCubesInTray = "physical_cubes_in_trays";
+inline constexpr const char* kLostStepsTrue = "lost_steps_truth";  // all axes
 }  // namespace metric
 
 // Writes the report of `run` (and of the runs whose parent it is) to `html`.
