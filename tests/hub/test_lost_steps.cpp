@@ -349,7 +349,7 @@ TEST(LostSteps, DISABLED_SeenByTheCameraWithinTwoHundredMillisecondsAndCountedBy
   ASSERT_TRUE((*hub)->home());
   const HomingCheck hc = (*hub)->last_homing();
   ASSERT_TRUE(hc.measured);
-  EXPECT_NEAR(std::abs(hc.offset_steps[1]), std::abs(lost), 1.0)
+  EXPECT_NEAR(std::abs(hc.offset_steps[1]), static_cast<double>(std::llabs(lost)), 1.0)
       << "homing found " << hc.offset_steps[1] << " J2 steps, the truth " << lost;
   tracker->reset();
   hub->reset();
