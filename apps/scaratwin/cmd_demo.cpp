@@ -28,6 +28,8 @@
 #include <nlohmann/json.hpp>
 
 #include "commands.hpp"
+#include "demo_figures.hpp"
+#include "demo_ticker.hpp"
 #include "emulator_side.hpp"
 #include "scaratwin/core/units.hpp"
 #include "scaratwin/hub/analysis.hpp"
@@ -54,41 +56,6 @@ struct DemoArgs {
 
 std::atomic<bool> g_interrupted{false};
 void on_interrupt(int) { g_interrupted = true; }
-
-// Prints a status line every second while a phase runs.
-class Ticker {
- public:
-  Ticker(Hub& hub, std::string phase) : hub_(hub), phase_(std::move(phase)) {
-    thread_ = std::thread([this] {
-      const auto start = std::chrono::steady_clock::now();
-      while (!stop_) {
-        std::this_thread::sleep_for(100ms);
-        if (std::chrono::steady_clock::now() - last_ < 1s) continue;
-        last_ = std::chrono::steady_clock::now();
-        const MirrorCounters c = hub_.mirror_counters();
-        const PhysicalState p = hub_.physical();
-        const ToolPose tool = forward(hub_.model(), p.q);
-        fmt::print(
-            "    {:<10} {:5.1f} s  tool ({:6.1f}, {:6.1f}, {:6.1f}) mm  mirror {} frames, "
-            "{} lost, latency {:.2f} ms\n",
-            phase_, std::chrono::duration<double>(last_ - start).count(), m_to_mm(tool.x_m),
-            m_to_mm(tool.y_m), m_to_mm(tool.z_m), c.applied, c.lost, c.last_latency_ms);
-        std::fflush(stdout);
-      }
-    });
-  }
-  ~Ticker() {
-    stop_ = true;
-    thread_.join();
-  }
-
- private:
-  Hub& hub_;
-  std::string phase_;
-  std::atomic<bool> stop_{false};
-  std::chrono::steady_clock::time_point last_ = std::chrono::steady_clock::now();
-  std::thread thread_;
-};
 
 void step(int n, int total, const std::string& what) {
   fmt::print("==> [{}/{}] {}\n", n, total, what);
@@ -125,31 +92,10 @@ Status spawn_all(Hub& hub, const std::vector<SortItem>& items) {
   return Ok{};
 }
 
-struct DemoOutcome {
-  int in_trays_prediction = 0;
-  int in_trays_replay = 0;  // virtual: the simulator mirroring the robot
-  std::uint64_t lost_frames = 0;
-  double virt_phys_mm = 0.0;
-  // against the physical truth (emulated robot only)
-  std::vector<double> control_error_mm;  // target -> true tool, per control target
-  int physical_in_trays = -1;            // where the physical cubes ended up
-  ToolErrorStats virt_phys_along;        // virtual -> true tool along every motion
-  std::optional<std::array<long long, 3>> steps_lost_truth;
-  std::optional<std::array<int, 3>> steps_lost_homing;
-  LatencyFigures latency;
-};
-
 // The paper's three control experiments: the end-effector coordinates its physical robot
 // reached (section 6), used here as the virtual targets.
 constexpr std::array<std::array<double, 2>, 3> kControlTargets{
     {{0.2071, 0.0662}, {0.2422, -0.0421}, {0.1952, 0.0076}}};
-
-// The sorting succeeded: on the physical table when it can be seen (the emulated robot's
-// truth), else in the virtual scene mirroring the robot.
-bool physical_ok(const DemoOutcome& o, std::size_t cubes) {
-  const int n = o.physical_in_trays >= 0 ? o.physical_in_trays : o.in_trays_replay;
-  return n == static_cast<int>(cubes);
-}
 
 // Measuring instruments of the emulated robot (none with a real board).
 struct Instruments {
@@ -157,39 +103,6 @@ struct Instruments {
   TruthRecorder* truth = nullptr;
   NetCamera* camera = nullptr;  // the robot's webcam (the twin's own sensor, not a truth)
 };
-
-// Virtual -> physical tool along the motions of `run` between two monotonic times: the
-// robot's reports (at its own clock) and the truth (at the same, emulated, clock).
-ToolErrorStats virtual_vs_truth(TwinDb& db, const RobotModel& model, std::int64_t run,
-                                const TruthRecorder& truth, std::uint64_t from_us,
-                                std::uint64_t to_us, std::vector<double>* distances) {
-  auto phys = db.samples(run, SampleSource::kPhysical);
-  auto lat = db.latencies(run);
-  if (!phys || !lat) return {};
-  std::map<std::int64_t, std::int64_t> device_us;  // seq -> device clock
-  for (const LatencyRecord& l : *lat) device_us[l.seq] = l.device_t_us;
-  std::vector<TimedJoints> reports;
-  for (const JointRecord& r : *phys) {
-    auto it = device_us.find(r.seq);
-    if (it != device_us.end()) reports.push_back({static_cast<double>(it->second) / 1e6, r.q});
-  }
-  std::sort(reports.begin(), reports.end(),
-            [](const TimedJoints& x, const TimedJoints& y) { return x.t_s < y.t_s; });
-  std::vector<ToolTruth> tt;
-  for (const TruthSample& t : truth.between(from_us, to_us)) {
-    if (t.as_built)
-      tt.push_back({static_cast<double>(t.sim_us) / 1e6, {t.tool[0], t.tool[1], t.tool[2]}});
-  }
-  const ToolErrorStats st = tool_error_vs_truth(model, reports, tt);
-  if (distances != nullptr) {
-    // keep each sample's distance for the session's figures
-    for (const ToolTruth& one : tt) {
-      const ToolErrorStats s1 = tool_error_vs_truth(model, reports, {one});
-      if (s1.count == 1) distances->push_back(s1.max_m);
-    }
-  }
-  return st;
-}
 
 Result<DemoOutcome> run_phases(Hub& hub, TwinDb& db, const DemoArgs& a, std::int64_t demo,
                                const Instruments& inst) {
@@ -491,16 +404,7 @@ Result<DemoOutcome> run_phases(Hub& hub, TwinDb& db, const DemoArgs& a, std::int
     if (!s) return s.error();
   }
   if (!along_m.empty()) {
-    const Stats st = summarize(along_m);
-    out.virt_phys_along.count = along_m.size();
-    out.virt_phys_along.mean_m = st.mean;
-    std::sort(along_m.begin(), along_m.end());
-    out.virt_phys_along.p95_m =
-        along_m[std::max<std::size_t>(
-                    static_cast<std::size_t>(std::ceil(0.95 * static_cast<double>(along_m.size()))),
-                    1) -
-                1];
-    out.virt_phys_along.max_m = along_m.back();
+    out.virt_phys_along = error_stats(along_m);
     (void)db.add_metric(demo, metric::kVirtTrueMeanMm, m_to_mm(out.virt_phys_along.mean_m), "mm");
     (void)db.add_metric(demo, metric::kVirtTrueMaxMm, m_to_mm(out.virt_phys_along.max_m), "mm");
   }
@@ -511,41 +415,6 @@ Result<DemoOutcome> run_phases(Hub& hub, TwinDb& db, const DemoArgs& a, std::int
                         "steps");
   }
   return out;
-}
-
-// Writes every figure of the session to results.json (keys: docs/results.md).
-Status write_results(const std::filesystem::path& path, const std::string& plant,
-                     const DemoOutcome& o) {
-  using nlohmann::json;
-  json j;
-  j["plant"] = plant;
-  j["control_error_target_physical_mm"] = o.control_error_mm;
-  j["virtual_vs_physical_tool_mm"] = o.virt_phys_along.count == 0
-                                         ? json(nullptr)
-                                         : json{{"mean", m_to_mm(o.virt_phys_along.mean_m)},
-                                                {"p95", m_to_mm(o.virt_phys_along.p95_m)},
-                                                {"max", m_to_mm(o.virt_phys_along.max_m)},
-                                                {"samples", o.virt_phys_along.count}};
-  j["physical_cubes_in_trays"] =
-      o.physical_in_trays >= 0 ? json(o.physical_in_trays) : json(nullptr);
-  j["virtual_cubes_in_trays"] = o.in_trays_replay;
-  j["prediction_cubes_in_trays"] = o.in_trays_prediction;
-  j["steps_lost"] = o.steps_lost_truth ? json{{"z", (*o.steps_lost_truth)[0]},
-                                              {"j2", (*o.steps_lost_truth)[1]},
-                                              {"j3", (*o.steps_lost_truth)[2]}}
-                                       : json(nullptr);
-  j["steps_lost_homing"] = o.steps_lost_homing ? json{{"z", (*o.steps_lost_homing)[0]},
-                                                      {"j2", (*o.steps_lost_homing)[1]},
-                                                      {"j3", (*o.steps_lost_homing)[2]}}
-                                               : json(nullptr);
-  j["mirror_latency_ms"] = {{"mean", o.latency.device_to_sim_ms.mean},
-                            {"p50", o.latency.device_to_sim_ms.p50},
-                            {"p99", o.latency.device_to_sim_ms.p99}};
-  j["mirror_lost_frames"] = o.lost_frames;
-  std::ofstream f(path);
-  f << j.dump(2) << "\n";
-  if (!f) return Error{1, "cannot write " + path.string()};
-  return Ok{};
 }
 
 int run_demo(const CommonOptions& common, const DemoArgs& a) {

@@ -285,8 +285,24 @@ bool DesyncMonitor::check(double deviation_m) {
   return true;
 }
 
+ToolErrorStats error_stats(std::vector<double> d) {
+  ToolErrorStats s;
+  s.count = d.size();
+  if (d.empty()) return s;
+  double sum = 0.0;
+  for (double x : d) sum += x;
+  s.mean_m = sum / static_cast<double>(d.size());
+  std::sort(d.begin(), d.end());
+  s.max_m = d.back();
+  // nearest rank
+  const auto rank = static_cast<std::size_t>(std::ceil(0.95 * static_cast<double>(d.size())));
+  s.p95_m = d[std::max<std::size_t>(rank, 1) - 1];
+  return s;
+}
+
 ToolErrorStats tool_error_vs_truth(const RobotModel& model, const std::vector<TimedJoints>& reports,
-                                   const std::vector<ToolTruth>& truth, double max_gap_s) {
+                                   const std::vector<ToolTruth>& truth, double max_gap_s,
+                                   std::vector<double>* distances_m) {
   std::vector<double> d;
   std::size_t k = 0;
   for (const ToolTruth& tt : truth) {
@@ -302,18 +318,8 @@ ToolErrorStats tool_error_vs_truth(const RobotModel& model, const std::vector<Ti
     const ToolPose v = forward(model, q);
     d.push_back(std::hypot(v.x_m - tt.p_m[0], v.y_m - tt.p_m[1], v.z_m - tt.p_m[2]));
   }
-  ToolErrorStats s;
-  s.count = d.size();
-  if (d.empty()) return s;
-  double sum = 0.0;
-  for (double x : d) sum += x;
-  s.mean_m = sum / static_cast<double>(d.size());
-  std::sort(d.begin(), d.end());
-  s.max_m = d.back();
-  // nearest rank
-  const auto rank = static_cast<std::size_t>(std::ceil(0.95 * static_cast<double>(d.size())));
-  s.p95_m = d[std::max<std::size_t>(rank, 1) - 1];
-  return s;
+  if (distances_m != nullptr) distances_m->insert(distances_m->end(), d.begin(), d.end());
+  return error_stats(std::move(d));
 }
 
 }  // namespace scaratwin

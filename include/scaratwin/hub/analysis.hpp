@@ -154,7 +154,11 @@ struct ToolErrorStats {
 // tool, FK of the description at the reported joints interpolated linearly in time, against
 // the measured tool. Samples whose bracketing reports are more than `max_gap_s` apart are
 // skipped (a gap in the reports is not an error of the twin).
+// `distances_m`, when given, gets each compared sample's distance appended.
 ToolErrorStats tool_error_vs_truth(const RobotModel& model, const std::vector<TimedJoints>& reports,
-                                   const std::vector<ToolTruth>& truth, double max_gap_s = 0.05);
+                                   const std::vector<ToolTruth>& truth, double max_gap_s = 0.05,
+                                   std::vector<double>* distances_m = nullptr);
+// Mean, 95th percentile (nearest rank) and maximum of distances (m).
+ToolErrorStats error_stats(std::vector<double> distances_m);
 
 }  // namespace scaratwin

@@ -1,0 +1,49 @@
+// The demo's figures against the physical truth: what a session measured (DemoOutcome), the
+// virtual -> true tool comparison along a run (the robot's reports against the emulator's
+// truth, aligned on the robot's own clock) and results.json (keys: docs/results.md). The
+// truth is a measuring instrument of the emulated robot; the twin never reads it.
+#pragma once
+
+#include <array>
+#include <cstdint>
+#include <filesystem>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "emulator_side.hpp"
+#include "scaratwin/core/result.hpp"
+#include "scaratwin/hub/analysis.hpp"
+#include "scaratwin/hub/twin_db.hpp"
+
+namespace scaratwin::cli {
+
+struct DemoOutcome {
+  int in_trays_prediction = 0;
+  int in_trays_replay = 0;  // virtual: the simulator mirroring the robot
+  std::uint64_t lost_frames = 0;
+  double virt_phys_mm = 0.0;
+  // against the physical truth (emulated robot only)
+  std::vector<double> control_error_mm;  // target -> true tool, per control target
+  int physical_in_trays = -1;            // where the physical cubes ended up
+  ToolErrorStats virt_phys_along;        // virtual -> true tool along every motion
+  std::optional<std::array<long long, 3>> steps_lost_truth;
+  std::optional<std::array<int, 3>> steps_lost_homing;
+  LatencyFigures latency;
+};
+
+// The sorting succeeded: on the physical table when it can be seen (the emulated robot's
+// truth), else in the virtual scene mirroring the robot.
+bool physical_ok(const DemoOutcome& o, std::size_t cubes);
+
+// Virtual -> physical tool along the motions of `run` between two monotonic times; each
+// compared sample's distance is appended to `distances` when given.
+ToolErrorStats virtual_vs_truth(TwinDb& db, const RobotModel& model, std::int64_t run,
+                                const TruthRecorder& truth, std::uint64_t from_us,
+                                std::uint64_t to_us, std::vector<double>* distances);
+
+// Writes every figure of the session to results.json (keys: docs/results.md).
+Status write_results(const std::filesystem::path& path, const std::string& plant,
+                     const DemoOutcome& o);
+
+}  // namespace scaratwin::cli
