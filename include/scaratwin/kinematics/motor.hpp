@@ -29,6 +29,16 @@ std::array<std::int32_t, kNumSteppers> joints_to_steps(const RobotModel& model,
 JointVector motors_to_joints(const RobotModel& model, const std::array<double, kNumSteppers>& steps,
                              double wrist_deg);
 
+// The calibration's joint map (RobotModel::calibration): the robot's true joints from the
+// firmware's joint values and back, with the dead bands at their middle (dir 0). The identity
+// for a description that was not calibrated.
+JointVector firmware_to_joints(const RobotModel& model, const JointVector& q_fw);
+JointVector joints_to_firmware(const RobotModel& model, const JointVector& q);
+
+// Where a joint really is relative to the middle of its dead band, given the direction each
+// stepper joint last moved (+1, -1, 0 unknown): -dir x backlash / 2 (index 3 is always 0).
+JointVector backlash_shift(const RobotModel& model, const std::array<int, kNumSteppers>& dir);
+
 // Steps per joint unit of each stepper and its joint index (Z->d1, J2->q2, J3->q3).
 double steps_per_unit(const RobotModel& model, int stepper);
 

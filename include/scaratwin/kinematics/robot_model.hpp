@@ -80,6 +80,37 @@ struct EndstopModel {
   int pulloff_steps = 40;
 };
 
+// What calibration found about this robot (`scaratwin calibrate` writes it into an overlay
+// description, docs/calibration.md). The firmware counts steps from where each endstop closes
+// in the description; the robot as built has its switches, lead screw and servo horn a little
+// elsewhere. These map the firmware's joint values (its step counts through the description's
+// conversions) to the robot's true joints; all zero (the identity) until calibrated.
+//   d1 = d1_fw + z_offset + z_scale (d1_fw - z switch)
+//   q2 = q2_fw + j2_zero + (homing_dir - dir) backlash / 2     (q3 alike)
+//   q4 = (1 + wrist_gain) q4_fw + wrist_offset
+// where dir is the direction the joint last moved (+1 / -1; 0 when unknown: the middle of the
+// dead band): a belt's output trails its motor by half the dead band.
+struct JointCalibration {
+  double z_offset_m = 0.0;
+  double z_scale = 0.0;
+  double j2_zero_rad = 0.0;
+  double j3_zero_rad = 0.0;
+  double wrist_offset_rad = 0.0;
+  double wrist_gain = 0.0;
+  std::array<double, 3> backlash{};  // Z (m), J2, J3 (rad): full dead band
+};
+
+// The physical overhead webcam as calibrated (pinhole + radial distortion k1, k2 on normalised
+// coordinates), when the description has one; the virtual scene camera stays `camera`.
+struct WebcamCalibration {
+  bool valid = false;
+  std::array<double, 3> pos_m{};
+  std::array<double, 9> r_bc{};  // rotation B <- camera, row-major (x right, y up, looks along -z)
+  double f_px = 0.0, cx_px = 0.0, cy_px = 0.0;
+  double k1 = 0.0, k2 = 0.0;
+  int width_px = 640, height_px = 480;
+};
+
 enum class CubeColor { kRed = 0, kGreen = 1, kBlue = 2 };
 inline constexpr int kNumColors = 3;
 
@@ -118,6 +149,8 @@ struct RobotModel {
   EndstopModel endstops;
   SceneModel scene;
   PhysicalModel physical;  // the robot as built: only the emulated plant reads it
+  JointCalibration calibration;  // identity until `scaratwin calibrate` measured the robot
+  WebcamCalibration webcam;      // the physical camera, once calibrated
 };
 
 // The paper's robot with every default of DESIGN.md.

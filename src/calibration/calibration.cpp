@@ -1,0 +1,383 @@
+#include "scaratwin/calibration/calibration.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <numbers>
+
+#include <Eigen/Dense>
+#include <Eigen/SVD>
+#include <fmt/format.h>
+#include <unsupported/Eigen/NonLinearOptimization>
+
+#include "scaratwin/kinematics/kinematics.hpp"
+#include "scaratwin/sim/mjcf.hpp"
+
+namespace scaratwin::calib {
+namespace {
+
+constexpr double kMm = 1e-3;
+constexpr double kDeg = std::numbers::pi / 180.0;
+constexpr double kPercent = 1e-2;
+
+// key, key unit -> SI, fit scale (SI), what makes it observable
+const std::array<ParamInfo, kParamCount> kParams{{
+    {"a2_mm", kMm, 1.0 * kMm, "marker views spread over the workspace and touch-offs"},
+    {"a3_mm", kMm, 1.0 * kMm, "marker views spread over the workspace and touch-offs"},
+    {"z_offset_mm", kMm, 1.0 * kMm, "touch-offs on marks of known height"},
+    {"z_scale_percent", kPercent, 0.5 * kPercent, "marker views and touch-offs at several heights"},
+    {"j2_zero_deg", kDeg, 1.0 * kDeg, "marker views in both elbow configurations"},
+    {"j3_zero_deg", kDeg, 1.0 * kDeg, "marker views in both elbow configurations"},
+    {"wrist_offset_deg", kDeg, 3.0 * kDeg, "views of the flag marker"},
+    {"wrist_gain_percent", kPercent, 3.0 * kPercent, "views of the flag marker at several wrist angles"},
+    {"jaw_offset_mm", kMm, 0.5 * kMm, "touch-offs at two or more wrist angles"},
+    {"j2_backlash_deg", kDeg, 0.3 * kDeg, "J2 reaching poses from both sides"},
+    {"j3_backlash_deg", kDeg, 0.3 * kDeg, "J3 reaching poses from both sides"},
+    {"camera_dx_mm", kMm, 3.0 * kMm, "the printed pattern on the table"},
+    {"camera_dy_mm", kMm, 3.0 * kMm, "the printed pattern on the table"},
+    {"camera_dz_mm", kMm, 3.0 * kMm, "the printed pattern and marker views at several heights"},
+    {"camera_rx_deg", kDeg, 1.0 * kDeg, "the printed pattern on the table"},
+    {"camera_ry_deg", kDeg, 1.0 * kDeg, "the printed pattern on the table"},
+    {"camera_rz_deg", kDeg, 1.0 * kDeg, "the printed pattern on the table"},
+    {"camera_focal_percent", kPercent, 1.0 * kPercent, "marker views at several heights"},
+    {"camera_k1", 1.0, 0.05, "the printed pattern out to the picture's edges"},
+}};
+
+using Theta = std::array<double, kParamCount>;
+
+RobotModel model_for(const RobotModel& base, const Theta& t) {
+  RobotModel m = base;
+  auto v = [&](Param p) { return t[static_cast<int>(p)]; };
+  m.dh[1].a_m += v(Param::kA2);
+  m.dh[2].a_m += v(Param::kA3);
+  m.dh[3].a_m += v(Param::kJawOffset);
+  JointCalibration& c = m.calibration;
+  c.z_offset_m = v(Param::kZOffset);
+  c.z_scale = v(Param::kZScale);
+  c.j2_zero_rad = v(Param::kJ2Zero);
+  c.j3_zero_rad = v(Param::kJ3Zero);
+  c.wrist_offset_rad = v(Param::kWristOffset);
+  c.wrist_gain = v(Param::kWristGain);
+  c.backlash = {0.0, v(Param::kJ2Backlash), v(Param::kJ3Backlash)};
+  return m;
+}
+
+WebcamModel camera_for(const WebcamModel& guess, const Theta& t) {
+  std::array<double, kWebcamParams> d{};
+  for (int i = 0; i < kWebcamParams; ++i) d[i] = t[kRobotParams + i];
+  return adjusted(guess, d);
+}
+
+struct Problem {
+  const RobotModel& base;
+  const WebcamModel& guess;
+  const Measurements& m;
+  const FitOptions& o;
+  int rows = 0;
+
+  // residuals, each divided by its expected noise
+  void residuals(const Theta& t, Eigen::VectorXd& r) const {
+    const RobotModel model = model_for(base, t);
+    const WebcamModel cam = camera_for(guess, t);
+    int k = 0;
+    auto pixel = [&](const std::array<double, 3>& p, int w, int h, const std::array<double, 2>& seen) {
+      double col = 0.0, row = 0.0;
+      if (!project(cam, p, w, h, col, row)) col = row = 1e6;
+      r[k++] = (col - seen[0]) / o.pixel_sigma;
+      r[k++] = (row - seen[1]) / o.pixel_sigma;
+    };
+    for (const PatternView& v : m.pattern) {
+      for (const PatternPoint& pp : v.points) pixel(pp.p_B, v.width_px, v.height_px, pp.px);
+    }
+    for (const MarkerView& v : m.markers) {
+      const JointVector q = true_joints(model, v.q_fw, v.dir);
+      if (v.axis_px) pixel(axis_marker_B(model, q), v.width_px, v.height_px, *v.axis_px);
+      if (v.flag_px) pixel(flag_marker_B(model, q), v.width_px, v.height_px, *v.flag_px);
+    }
+    for (const TouchOff& t_off : m.touches) {
+      const JointVector q = true_joints(model, t_off.q_fw, t_off.dir);
+      const ToolPose p = forward(model, q);
+      r[k++] = (p.x_m - t_off.mark_B[0]) / o.touch_sigma_m;
+      r[k++] = (p.y_m - t_off.mark_B[1]) / o.touch_sigma_m;
+      r[k++] = (p.z_m - t_off.mark_B[2]) / o.touch_sigma_m;
+    }
+  }
+
+  Theta to_theta(const Eigen::VectorXd& x) const {
+    Theta t{};
+    for (int i = 0; i < kParamCount; ++i) t[i] = x[i] * kParams[i].scale_si;
+    return t;
+  }
+};
+
+// Eigen's Levenberg-Marquardt functor (unknowns in units of each parameter's scale)
+struct Functor {
+  using Scalar = double;
+  enum { InputsAtCompileTime = Eigen::Dynamic, ValuesAtCompileTime = Eigen::Dynamic };
+  using InputType = Eigen::VectorXd;
+  using ValueType = Eigen::VectorXd;
+  using JacobianType = Eigen::MatrixXd;
+  const Problem* p;
+  int inputs() const { return kParamCount; }
+  int values() const { return p->rows; }
+  int operator()(const Eigen::VectorXd& x, Eigen::VectorXd& f) const {
+    p->residuals(p->to_theta(x), f);
+    return 0;
+  }
+  int df(const Eigen::VectorXd& x, Eigen::MatrixXd& j) const {
+    // central differences: the model is smooth and cheap
+    constexpr double h = 1e-5;
+    Eigen::VectorXd xp = x, xm = x, fp(p->rows), fm(p->rows);
+    for (int i = 0; i < kParamCount; ++i) {
+      xp[i] = x[i] + h;
+      xm[i] = x[i] - h;
+      p->residuals(p->to_theta(xp), fp);
+      p->residuals(p->to_theta(xm), fm);
+      j.col(i) = (fp - fm) / (2.0 * h);
+      xp[i] = xm[i] = x[i];
+    }
+    return 0;
+  }
+};
+
+int sign_count(const std::vector<MarkerView>& v, int joint, int s) {
+  return static_cast<int>(
+      std::count_if(v.begin(), v.end(), [&](const MarkerView& m) { return m.dir[joint] == s && m.axis_px; }));
+}
+
+}  // namespace
+
+const ParamInfo& param_info(Param p) { return kParams[static_cast<int>(p)]; }
+
+JointVector true_joints(const RobotModel& calibrated, const JointVector& q_fw, const Directions& dir) {
+  JointVector q = firmware_to_joints(calibrated, q_fw);
+  const JointVector s = backlash_shift(calibrated, {dir[0], dir[1], dir[2]});
+  for (int i = 0; i < kNumJoints; ++i) q[i] += s[i];
+  return q;
+}
+
+std::array<double, 3> axis_marker_B(const RobotModel& model, const JointVector& q) {
+  return sim::marker_position(model, q);
+}
+
+std::array<double, 3> flag_marker_B(const RobotModel& model, const JointVector& q) {
+  // the cyan flag: 25 mm out along the gripper's x axis, at the height of the axis marker
+  const std::array<double, 3> a = sim::marker_position(model, q);
+  const double yaw = forward(model, q).yaw_rad;
+  return {a[0] + 0.025 * std::cos(yaw), a[1] + 0.025 * std::sin(yaw), a[2]};
+}
+
+std::optional<std::string> missing_measurement(const RobotModel& base, const Measurements& m) {
+  (void)base;
+  int corners = 0;
+  for (const PatternView& v : m.pattern) corners += static_cast<int>(v.points.size());
+  if (corners < 24) {
+    return fmt::format(
+        "the printed pattern: {} tag corners seen, at least 24 are needed (put the pattern on "
+        "the table in view of the camera)",
+        corners);
+  }
+  int axis = 0, flags = 0, elbow_pos = 0, elbow_neg = 0;
+  double z_min = 1e9, z_max = -1e9, w_min = 1e9, w_max = -1e9;
+  for (const MarkerView& v : m.markers) {
+    if (v.axis_px) {
+      ++axis;
+      (v.q_fw[2] >= 0.0 ? elbow_pos : elbow_neg)++;
+      z_min = std::min(z_min, v.q_fw[0]);
+      z_max = std::max(z_max, v.q_fw[0]);
+    }
+    if (v.flag_px) {
+      ++flags;
+      w_min = std::min(w_min, v.q_fw[3]);
+      w_max = std::max(w_max, v.q_fw[3]);
+    }
+  }
+  if (axis < 12) {
+    return fmt::format("marker views: the tool marker was seen at {} poses, at least 12 are needed",
+                       axis);
+  }
+  if (elbow_pos < 3 || elbow_neg < 3) {
+    return fmt::format(
+        "marker views in both elbow configurations: {} with the elbow bent one way and {} the "
+        "other, at least 3 of each are needed",
+        elbow_pos, elbow_neg);
+  }
+  if (z_max - z_min < 0.04) {
+    return fmt::format(
+        "marker views at several heights: Z spans {:.1f} mm, at least 40 mm are needed",
+        (z_max - z_min) * 1e3);
+  }
+  if (flags < 6 || w_max - w_min < 60.0 * kDeg) {
+    return fmt::format(
+        "flag marker views at several wrist angles: {} views over {:.0f} deg, at least 6 over "
+        "60 deg are needed",
+        flags, flags > 0 ? (w_max - w_min) / kDeg : 0.0);
+  }
+  for (int j = 1; j <= 2; ++j) {
+    const int up = sign_count(m.markers, j, +1), down = sign_count(m.markers, j, -1);
+    if (up < 3 || down < 3) {
+      return fmt::format(
+          "J{} reaching poses from both sides (its backlash): {} views after moving up and {} "
+          "after moving down, at least 3 of each are needed",
+          j + 1, up, down);
+    }
+  }
+  if (m.touches.size() < 3) {
+    return fmt::format("touch-offs: {} marks touched, at least 3 are needed", m.touches.size());
+  }
+  double t_min = 1e9, t_max = -1e9;
+  for (const TouchOff& t : m.touches) {
+    t_min = std::min(t_min, t.q_fw[3]);
+    t_max = std::max(t_max, t.q_fw[3]);
+  }
+  if (t_max - t_min < 45.0 * kDeg) {
+    return fmt::format(
+        "touch-offs at two or more wrist angles (the jaw offset): they span {:.0f} deg, at least "
+        "45 deg are needed",
+        (t_max - t_min) / kDeg);
+  }
+  return std::nullopt;
+}
+
+Result<Fit> fit(const RobotModel& base, const WebcamModel& camera_guess, const Measurements& m,
+                const FitOptions& o) {
+  if (auto missing = missing_measurement(base, m)) {
+    return Error{1, "calibration needs more measurements: " + *missing};
+  }
+  Problem prob{base, camera_guess, m, o};
+  Fit out;
+  for (const PatternView& v : m.pattern) {
+    out.pattern_points += static_cast<int>(v.points.size());
+    prob.rows += 2 * static_cast<int>(v.points.size());
+  }
+  for (const MarkerView& v : m.markers) {
+    const int n = (v.axis_px ? 1 : 0) + (v.flag_px ? 1 : 0);
+    out.marker_points += n;
+    if (n > 0) ++out.marker_views;
+    prob.rows += 2 * n;
+  }
+  out.touch_offs = static_cast<int>(m.touches.size());
+  prob.rows += 3 * out.touch_offs;
+
+  Functor f{&prob};
+  Eigen::VectorXd x = Eigen::VectorXd::Zero(kParamCount);
+  Eigen::LevenbergMarquardt<Functor> lm(f);
+  lm.parameters.maxfev = o.max_iterations;
+  lm.parameters.xtol = 1e-12;
+  lm.parameters.ftol = 1e-12;
+  const auto status = lm.minimize(x);
+  out.iterations = static_cast<int>(lm.iter);
+  if (status == Eigen::LevenbergMarquardtSpace::ImproperInputParameters) {
+    return Error{1, "calibration: the solver refused its input (no measurements?)"};
+  }
+
+  // observability: the Jacobian at the solution must have full column rank
+  Eigen::MatrixXd jac(prob.rows, kParamCount);
+  f.df(x, jac);
+  Eigen::JacobiSVD<Eigen::MatrixXd> svd(jac, Eigen::ComputeThinV);
+  const auto& sv = svd.singularValues();
+  if (!(sv[kParamCount - 1] > 1e-6 * sv[0])) {
+    const Eigen::VectorXd null = svd.matrixV().col(kParamCount - 1);
+    Eigen::Index worst = 0;
+    null.cwiseAbs().maxCoeff(&worst);
+    return Error{1, fmt::format("calibration: {} is not determined by these measurements; it "
+                                "needs {}",
+                                kParams[worst].key, kParams[worst].needs)};
+  }
+
+  Eigen::VectorXd r(prob.rows);
+  prob.residuals(prob.to_theta(x), r);
+  // the residuals in their units
+  double pix2 = 0.0, mark2 = 0.0, touch2 = 0.0;
+  int pix_n = 0, mark_n = 0;
+  int k = 0;
+  for (const PatternView& v : m.pattern) {
+    for (std::size_t i = 0; i < v.points.size(); ++i, k += 2) {
+      pix2 += std::pow(r[k] * o.pixel_sigma, 2) + std::pow(r[k + 1] * o.pixel_sigma, 2);
+      ++pix_n;
+    }
+  }
+  for (const MarkerView& v : m.markers) {
+    const int n = (v.axis_px ? 1 : 0) + (v.flag_px ? 1 : 0);
+    for (int i = 0; i < n; ++i, k += 2) {
+      const double e2 = std::pow(r[k] * o.pixel_sigma, 2) + std::pow(r[k + 1] * o.pixel_sigma, 2);
+      pix2 += e2;
+      mark2 += e2;
+      ++pix_n;
+      ++mark_n;
+      out.worst_marker_px = std::max(out.worst_marker_px, std::sqrt(e2));
+    }
+  }
+  for (int i = 0; i < out.touch_offs; ++i, k += 3) {
+    touch2 += std::pow(r[k] * o.touch_sigma_m, 2) + std::pow(r[k + 1] * o.touch_sigma_m, 2) +
+              std::pow(r[k + 2] * o.touch_sigma_m, 2);
+  }
+  out.pixel_rms = pix_n > 0 ? std::sqrt(pix2 / pix_n) : 0.0;
+  out.marker_rms_px = mark_n > 0 ? std::sqrt(mark2 / mark_n) : 0.0;
+  out.touch_rms_m = out.touch_offs > 0 ? std::sqrt(touch2 / out.touch_offs) : 0.0;
+  if (out.pixel_rms > o.max_pixel_rms || out.touch_rms_m > o.max_touch_rms_m) {
+    return Error{1, fmt::format(
+                        "calibration: the measurements do not fit one robot (residual {:.2f} px, "
+                        "limit {:.2f} px; touch-offs {:.2f} mm, limit {:.2f} mm): a belt may "
+                        "have slipped or steps been lost during the routine, or a marker been "
+                        "mistaken; check the belts and calibrate again (no overlay written)",
+                        out.pixel_rms, o.max_pixel_rms, out.touch_rms_m * 1e3,
+                        o.max_touch_rms_m * 1e3)};
+  }
+
+  // standard errors: (J^T J)^-1 scaled by the residual variance per degree of freedom
+  const int dof = std::max(1, prob.rows - kParamCount);
+  const double s2 = r.squaredNorm() / dof;
+  const Eigen::MatrixXd cov = (jac.transpose() * jac).inverse() * std::max(s2, 1e-12);
+  const Theta t = prob.to_theta(x);
+  for (int i = 0; i < kParamCount; ++i) {
+    out.value[i] = t[i];
+    out.std_error[i] = std::sqrt(std::max(cov(i, i), 0.0)) * kParams[i].scale_si;
+    if (out.std_error[i] > o.max_normalised_error * kParams[i].scale_si) {
+      return Error{1, fmt::format("calibration: {} is poorly determined (std error {:.3g} {}); "
+                                  "it needs more {}",
+                                  kParams[i].key, out.std_error[i] / kParams[i].to_si,
+                                  kParams[i].key.substr(kParams[i].key.rfind('_') + 1),
+                                  kParams[i].needs)};
+    }
+  }
+  out.camera = camera_for(camera_guess, t);
+  return out;
+}
+
+RobotModel apply(const RobotModel& base, const Fit& fit) {
+  RobotModel m = model_for(base, fit.value);
+  m.webcam = to_description(fit.camera);
+  return m;
+}
+
+WebcamCalibration to_description(const WebcamModel& c) {
+  WebcamCalibration w;
+  w.valid = true;
+  w.pos_m = c.pos_m;
+  w.r_bc = c.r_bc;
+  w.f_px = c.f_px;
+  w.cx_px = c.cx_px;
+  w.cy_px = c.cy_px;
+  w.k1 = c.k1;
+  w.k2 = c.k2;
+  w.width_px = c.width_px;
+  w.height_px = c.height_px;
+  return w;
+}
+
+WebcamModel from_description(const WebcamCalibration& w) {
+  WebcamModel c;
+  c.pos_m = w.pos_m;
+  c.r_bc = w.r_bc;
+  c.f_px = w.f_px;
+  c.cx_px = w.cx_px;
+  c.cy_px = w.cy_px;
+  c.k1 = w.k1;
+  c.k2 = w.k2;
+  c.width_px = w.width_px;
+  c.height_px = w.height_px;
+  return c;
+}
+
+}  // namespace scaratwin::calib
