@@ -351,6 +351,35 @@ RobotModel apply(const RobotModel& base, const Fit& fit) {
   return m;
 }
 
+std::string overlay_text(const RobotModel& base, const Fit& f, const std::string& base_ref,
+                         const std::string& date_utc) {
+  std::string t;
+  t += "# scaratwin calibration overlay: the robot as `scaratwin calibrate` measured it.\n";
+  t += "# Load it with --config <this file>; it refines the base description named below.\n";
+  t += "# identified: [value, standard error] in the key's unit, as deviations from the base.\n";
+  t += fmt::format("base = \"{}\"\n\n[calibration]\n", base_ref);
+  t += fmt::format("date = \"{}\"\nrobot = \"{}\"\n", date_utc, base.name);
+  t += fmt::format("pattern_points = {}\nmarker_views = {}\ntouch_offs = {}\n", f.pattern_points,
+                   f.marker_views, f.touch_offs);
+  t += fmt::format("pixel_rms = {:.4f}\ntouch_rms_mm = {:.4f}\nfit_s = {:.3f}\n\n", f.pixel_rms,
+                   f.touch_rms_m * 1e3, f.fit_seconds);
+  t += "[calibration.identified]\n";
+  for (int i = 0; i < kParamCount; ++i) {
+    t += fmt::format("{} = [{:.12g}, {:.3g}]\n", kParams[i].key, f.value[i] / kParams[i].to_si,
+                     f.std_error[i] / kParams[i].to_si);
+  }
+  const WebcamModel& c = f.camera;
+  t += "\n[calibration.webcam]\n";
+  t += fmt::format("pos_m = [{:.9g}, {:.9g}, {:.9g}]\n", c.pos_m[0], c.pos_m[1], c.pos_m[2]);
+  t += "r_bc = [";
+  for (int i = 0; i < 9; ++i) t += fmt::format("{}{:.12g}", i ? ", " : "", c.r_bc[i]);
+  t += "]\n";
+  t += fmt::format("f_px = {:.9g}\ncx_px = {:.9g}\ncy_px = {:.9g}\nk1 = {:.9g}\nk2 = {:.9g}\n",
+                   c.f_px, c.cx_px, c.cy_px, c.k1, c.k2);
+  t += fmt::format("width_px = {}\nheight_px = {}\n", c.width_px, c.height_px);
+  return t;
+}
+
 WebcamCalibration to_description(const WebcamModel& c) {
   WebcamCalibration w;
   w.valid = true;

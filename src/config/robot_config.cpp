@@ -5,6 +5,7 @@
 #include <cmath>
 #include <cstdlib>
 #include <fstream>
+#include <optional>
 #include <set>
 #include <sstream>
 #include <string>
@@ -261,6 +262,81 @@ void read_physical(TableReader& top, PhysicalModel& p) {
   }
 }
 
+// What `scaratwin calibrate` identified (an overlay's [calibration], docs/calibration.md):
+// the links and the joint map as deviations from the base description, the webcam absolute.
+void read_calibration(TableReader& top, RobotModel& m) {
+  TableReader c = top.sub("calibration");
+  if (!c.present()) return;
+  std::string text;
+  c.string("date", text);
+  c.string("robot", text);
+  int count = 0;
+  c.integer("pattern_points", count, 0, 1000000);
+  c.integer("marker_views", count, 0, 1000000);
+  c.integer("touch_offs", count, 0, 1000000);
+  double x = 0.0;
+  c.number("pixel_rms", x);
+  c.number("touch_rms_mm", x);
+  c.number("fit_s", x);
+  constexpr double kMm = 1e-3, kPct = 1e-2, kRad = 1.0 / kDegPerRad;
+  JointCalibration& j = m.calibration;
+  struct Key {
+    const char* key;
+    double* field;
+    double to_si;
+  };
+  const Key keys[] = {
+      {"a2_mm", &m.dh[1].a_m, kMm},
+      {"a3_mm", &m.dh[2].a_m, kMm},
+      {"jaw_offset_mm", &m.dh[3].a_m, kMm},
+      {"z_offset_mm", &j.z_offset_m, kMm},
+      {"z_scale_percent", &j.z_scale, kPct},
+      {"j2_zero_deg", &j.j2_zero_rad, kRad},
+      {"j3_zero_deg", &j.j3_zero_rad, kRad},
+      {"wrist_offset_deg", &j.wrist_offset_rad, kRad},
+      {"wrist_gain_percent", &j.wrist_gain, kPct},
+      {"j2_backlash_deg", &j.backlash[1], kRad},
+      {"j3_backlash_deg", &j.backlash[2], kRad},
+  };
+  TableReader id = c.sub("identified");
+  std::string valid;
+  for (const Key& k : keys) {
+    std::array<double, 2> v{std::nan(""), 0.0};  // value, standard error
+    id.numbers(k.key, v);
+    if (!std::isnan(v[0])) *k.field += v[0] * k.to_si;
+    valid += std::string(k.key) + ", ";
+  }
+  // the camera's adjustments are recorded for the reader; the webcam table below is absolute
+  static constexpr const char* kCamera[] = {"camera_dx_mm", "camera_dy_mm", "camera_dz_mm",
+                                            "camera_rx_deg", "camera_ry_deg", "camera_rz_deg",
+                                            "camera_focal_percent", "camera_k1"};
+  for (const char* k : kCamera) {
+    std::array<double, 2> v{};
+    id.numbers(k, v);
+    valid += std::string(k) + ", ";
+  }
+  id.reject_unknown(valid.substr(0, valid.size() - 2));
+  TableReader w = c.sub("webcam");
+  if (w.present()) {
+    WebcamCalibration& cam = m.webcam;
+    cam.valid = true;
+    w.numbers("pos_m", cam.pos_m);
+    w.numbers("r_bc", cam.r_bc);
+    w.number("f_px", cam.f_px);
+    w.number("cx_px", cam.cx_px);
+    w.number("cy_px", cam.cy_px);
+    w.number("k1", cam.k1);
+    w.number("k2", cam.k2);
+    w.integer("width_px", cam.width_px, 16, 8192);
+    w.integer("height_px", cam.height_px, 16, 8192);
+    w.reject_unknown("pos_m, r_bc, f_px, cx_px, cy_px, k1, k2, width_px, height_px");
+    if (!(cam.f_px > 0.0)) w.fail(fmt::format("calibration.webcam.f_px = {}: must be > 0", cam.f_px));
+  }
+  c.reject_unknown(
+      "date, robot, pattern_points, marker_views, touch_offs, pixel_rms, touch_rms_mm, fit_s, "
+      "identified, webcam");
+}
+
 }  // namespace
 
 Result<RobotModel> parse_robot_config(std::string_view toml_text, std::string_view source) {
@@ -271,9 +347,37 @@ Result<RobotModel> parse_robot_config(std::string_view toml_text, std::string_vi
     return Error{1, fmt::format("{}:{}:{}: {}", source, e.source().begin.line,
                                 e.source().begin.column, e.description())};
   }
-  RobotModel m = paper_robot();
   std::string error;
   TableReader top(&root, "", &error);
+  // an overlay (written by `scaratwin calibrate`): the base description it refines, then what
+  // calibration identified; nothing else
+  if (const toml::node* base = root.get("base")) {
+    const std::optional<std::string> ref = base->value<std::string>();
+    if (!ref) return Error{1, fmt::format("{}: base: expected the path of a robot description", source)};
+    std::filesystem::path path(*ref);
+    if (path.is_relative()) path = std::filesystem::path(source).parent_path() / path;
+    if (path == std::filesystem::path(source)) {
+      return Error{1, fmt::format("{}: base names the overlay itself", source)};
+    }
+    // a chain of overlays is fine; a circle of them is not
+    thread_local int depth = 0;
+    if (depth >= 8) return Error{1, fmt::format("{}: base: more than 8 overlays deep (a circle?)", source)};
+    ++depth;
+    auto base_model = load_robot_config(path);
+    --depth;
+    if (!base_model) {
+      return Error{1, fmt::format("{}: its base description: {}", source, base_model.error().message)};
+    }
+    RobotModel m = std::move(base_model).value();
+    std::string unused;
+    top.string("base", unused);
+    read_calibration(top, m);
+    top.reject_unknown("base, calibration (an overlay refines its base description only)");
+    if (!error.empty()) return Error{1, fmt::format("{}: {}", source, error)};
+    if (Status s = validate(m); !s) return Error{1, fmt::format("{}: {}", source, s.error().message)};
+    return m;
+  }
+  RobotModel m = paper_robot();
   top.string("name", m.name);
 
   {

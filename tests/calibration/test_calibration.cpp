@@ -6,10 +6,13 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <filesystem>
+#include <fstream>
 #include <numbers>
 #include <random>
 
 #include "scaratwin/calibration/calibration.hpp"
+#include "scaratwin/config/robot_config.hpp"
 #include "scaratwin/kinematics/kinematics.hpp"
 #include "scaratwin/sim/mjcf.hpp"
 #include "scaratwin/vision/webcam.hpp"
@@ -234,6 +237,62 @@ TEST(Calibration, JointMapRoundTripsAndIsTheIdentityUncalibrated) {
   // q2 moving towards its switch (homing_dir +1) reads the switch's relation exactly
   EXPECT_NEAR(true_joints(m, q, {0, +1, 0, 0})[1], q[1] + 0.01, 1e-12);
   EXPECT_NEAR(true_joints(m, q, {0, -1, 0, 0})[1], q[1] + 0.01 + 0.004, 1e-12);
+}
+
+}  // namespace
+}  // namespace scaratwin::calib
+
+namespace scaratwin::calib {
+namespace {
+
+TEST(Calibration, TheOverlayLoadsAsTheCalibratedDescription) {
+  auto base = load_robot_config(SCARATWIN_CONFIG_FILE);
+  ASSERT_TRUE(base) << base.error().message;
+  Synth s;
+  s.base = *base;
+  const Measurements m = s.make(30, 6);
+  auto f = fit(*base, nominal_webcam(base->scene.camera), m);
+  ASSERT_TRUE(f) << f.error().message;
+  const auto dir = std::filesystem::temp_directory_path() / "scaratwin_overlay_test";
+  std::filesystem::create_directories(dir);
+  const auto path = dir / "scara.calibrated.toml";
+  {
+    std::ofstream out(path);
+    out << overlay_text(*base, *f, SCARATWIN_CONFIG_FILE, "2026-11-24T05:00:00Z");
+  }
+  auto loaded = load_robot_config(path);
+  ASSERT_TRUE(loaded) << loaded.error().message;
+  const RobotModel want = apply(*base, *f);
+  for (int i = 0; i < kNumJoints; ++i) EXPECT_NEAR(loaded->dh[i].a_m, want.dh[i].a_m, 1e-12);
+  EXPECT_NEAR(loaded->calibration.z_offset_m, want.calibration.z_offset_m, 1e-12);
+  EXPECT_NEAR(loaded->calibration.z_scale, want.calibration.z_scale, 1e-11);
+  EXPECT_NEAR(loaded->calibration.j2_zero_rad, want.calibration.j2_zero_rad, 1e-11);
+  EXPECT_NEAR(loaded->calibration.j3_zero_rad, want.calibration.j3_zero_rad, 1e-11);
+  EXPECT_NEAR(loaded->calibration.wrist_offset_rad, want.calibration.wrist_offset_rad, 1e-11);
+  EXPECT_NEAR(loaded->calibration.wrist_gain, want.calibration.wrist_gain, 1e-11);
+  EXPECT_NEAR(loaded->calibration.backlash[1], want.calibration.backlash[1], 1e-11);
+  EXPECT_NEAR(loaded->calibration.backlash[2], want.calibration.backlash[2], 1e-11);
+  ASSERT_TRUE(loaded->webcam.valid);
+  EXPECT_NEAR(loaded->webcam.f_px, want.webcam.f_px, 1e-6);
+  EXPECT_NEAR(loaded->webcam.k1, want.webcam.k1, 1e-9);
+  for (int i = 0; i < 9; ++i) EXPECT_NEAR(loaded->webcam.r_bc[i], want.webcam.r_bc[i], 1e-11);
+
+  // an overlay refines only: a stray key is named
+  {
+    std::ofstream out(dir / "bad.toml");
+    out << "base = \"" << SCARATWIN_CONFIG_FILE << "\"\nname = \"x\"\n";
+  }
+  auto bad = load_robot_config(dir / "bad.toml");
+  ASSERT_FALSE(bad);
+  EXPECT_NE(bad.error().message.find("name"), std::string::npos) << bad.error().message;
+  {
+    std::ofstream out(dir / "self.toml");
+    out << "base = \"self.toml\"\n";
+  }
+  bad = load_robot_config(dir / "self.toml");
+  ASSERT_FALSE(bad);
+  EXPECT_NE(bad.error().message.find("base names the overlay itself"), std::string::npos);
+  std::filesystem::remove_all(dir);
 }
 
 }  // namespace

@@ -142,6 +142,13 @@ JointVector true_joints(const RobotModel& calibrated, const JointVector& q_fw, c
 std::array<double, 3> axis_marker_B(const RobotModel& model, const JointVector& q);
 std::array<double, 3> flag_marker_B(const RobotModel& model, const JointVector& q);
 
+// The overlay description (TOML) that records a fit: `base` (the path of the base description
+// as the overlay should name it, usually relative to the overlay), when, from how many
+// measurements, with what residual, each identified value with its standard error, and the
+// calibrated webcam. `load_robot_config` of it gives apply(base, fit).
+std::string overlay_text(const RobotModel& base, const Fit& fit, const std::string& base_ref,
+                         const std::string& date_utc);
+
 WebcamCalibration to_description(const WebcamModel& camera);
 WebcamModel from_description(const WebcamCalibration& w);
 
