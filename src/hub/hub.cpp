@@ -31,7 +31,7 @@ constexpr const char* kInterrupted = "interrupted";
 }  // namespace
 
 Hub::Hub(const RobotModel& model, const HubOptions& options, TwinDb* db)
-    : model_(model), options_(options), db_(db) {}
+    : model_(model), options_(options), db_(db), report_dir_(homed_directions(model)) {}
 
 Hub::~Hub() {
   // statements and channels first (they hold the links' handlers), then the links, then the
@@ -201,6 +201,11 @@ void Hub::on_device_state(const pr::DeviceState& st, const tr::RxPacket& rx) {
   bool mirror;
   {
     std::lock_guard<std::mutex> lock(mu_);
+    // a calibrated backlash: each joint trails its motor by half its dead band
+    if (state_count_ > 0) track_directions(report_dir_, report_mid_, ps.q);
+    report_mid_ = ps.q;
+    const JointVector shift = backlash_shift(model_, report_dir_);
+    for (int j = 0; j < kNumJoints; ++j) ps.q[j] += shift[j];
     physical_ = ps;
     ++state_count_;
     add_sample(SampleSource::kPhysical, static_cast<double>(rx.steady_us - run_start_us_) / 1e6,
@@ -400,8 +405,11 @@ Status Hub::home(double timeout_s) {
     return hub_error(fmt::format("homing failed: the {} endstop was not found (switch or cable)",
                                  axis >= 0 && axis < 3 ? kAxis[axis] : "?"));
   }
+  // homing leaves each joint moving away from its switch
+  statements_->set_directions(homed_directions(model_));
   // the offsets come just before EV 1 when the robot was homed before
   std::lock_guard<std::mutex> lock(mu_);
+  report_dir_ = homed_directions(model_);
   HomingCheck c;
   for (const auto& [n, e] : events_) {
     const int k = static_cast<int>(e.event) - static_cast<int>(pr::DeviceEventCode::kHomingOffsetZ);

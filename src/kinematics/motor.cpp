@@ -47,6 +47,18 @@ JointVector backlash_shift(const RobotModel& model, const std::array<int, kNumSt
   return s;
 }
 
+MotionDirections homed_directions(const RobotModel& model) {
+  const auto& hd = model.endstops.homing_dir;
+  return {-hd[0], -hd[1], -hd[2]};
+}
+
+void track_directions(MotionDirections& dir, const JointVector& from, const JointVector& to) {
+  for (int i = 0; i < kNumSteppers; ++i) {
+    const double d = to[i] - from[i];
+    if (std::abs(d) > 1e-9) dir[i] = d > 0.0 ? 1 : -1;
+  }
+}
+
 MotorPosition joints_to_motors(const RobotModel& model, const JointVector& q_joints) {
   const JointVector q = joints_to_firmware(model, q_joints);
   MotorPosition m;

@@ -33,7 +33,16 @@ Error unexpected(const char* statement, const char* wanted) {
 
 Twin::Twin(const RobotModel& model, RobotChannel* physical, SimChannel* virtual_robot,
            TwinOptions options)
-    : model_(model), physical_(physical), virtual_(virtual_robot), options_(options) {}
+    : model_(model),
+      physical_(physical),
+      virtual_(virtual_robot),
+      options_(options),
+      last_dir_(homed_directions(model)) {}
+
+void Twin::set_directions(const MotionDirections& dir) {
+  std::lock_guard lock(log_mutex_);
+  last_dir_ = dir;
+}
 
 Result<PhysicalJoints> Twin::read_physical_joints() {
   constexpr const char* kName = "read_physical_joints";
@@ -125,6 +134,12 @@ Result<TrajectoryLoad> Twin::load_trajectory(const JointTrajectory& trajectory) 
   }
   // the points, in wire units
   std::vector<TrajectoryPoint> points(samples.size());
+  MotionDirections dir;
+  {
+    std::lock_guard lock(log_mutex_);
+    dir = last_dir_;
+  }
+  const auto& backlash = model_.calibration.backlash;
   std::size_t event = 0;
   double total_s = 0.0;
   for (std::size_t k = 0; k < samples.size(); ++k) {
@@ -151,6 +166,9 @@ Result<TrajectoryLoad> Twin::load_trajectory(const JointTrajectory& trajectory) 
     for (int j = 0; j < kNumJoints; ++j) {
       q[j] += samples[k].qd[j] * shift_s + 0.5 * samples[k].qdd[j] * shift_s * shift_s;
     }
+    // a calibrated backlash: the motor leads the joint by half the dead band
+    if (k > 0) track_directions(dir, samples[k - 1].q, samples[k].q);
+    for (int j = 0; j < kNumSteppers; ++j) q[j] += 0.5 * dir[j] * backlash[j];
     const auto steps = joints_to_steps(model_, q);
     p.steps = {steps[0], steps[1], steps[2]};
     p.wrist_rad = deg_to_rad(joints_to_motors(model_, q).wrist_deg);
@@ -173,6 +191,10 @@ Result<TrajectoryLoad> Twin::load_trajectory(const JointTrajectory& trajectory) 
   const auto* ak = std::get_if<Ack>(&begin->last());
   if (!ak || !ak->value || *ak->value < 1) {
     return Error{core::kErrInternal, std::string(kName) + ": TB acknowledged without free slots"};
+  }
+  {
+    std::lock_guard lock(log_mutex_);  // the robot takes the points from here on
+    last_dir_ = dir;
   }
 
   // credit = free slots in the latest reply - TP sent after the request it answers

@@ -222,6 +222,9 @@ class Hub {
   std::atomic<bool> interrupted_{false};
   DesyncMonitor desync_{0.0, 1};  // the current trajectory's, reset when it starts
   HomingCheck last_homing_;
+  // the side of its dead band each joint rests on (a calibrated backlash), from the reports
+  MotionDirections report_dir_{};
+  JointVector report_mid_{};  // the last report's joints at the middle of the dead bands
 };
 
 }  // namespace scaratwin

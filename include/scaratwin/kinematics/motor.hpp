@@ -39,6 +39,13 @@ JointVector joints_to_firmware(const RobotModel& model, const JointVector& q);
 // stepper joint last moved (+1, -1, 0 unknown): -dir x backlash / 2 (index 3 is always 0).
 JointVector backlash_shift(const RobotModel& model, const std::array<int, kNumSteppers>& dir);
 
+// The direction each stepper joint last moved (+1, -1; 0 unknown), which decides the side of
+// its dead band a joint rests on. Homing leaves each moving away from its switch.
+using MotionDirections = std::array<int, kNumSteppers>;
+MotionDirections homed_directions(const RobotModel& model);
+// Updates `dir` with a move from `from` to `to` (a joint that did not move keeps its own).
+void track_directions(MotionDirections& dir, const JointVector& from, const JointVector& to);
+
 // Steps per joint unit of each stepper and its joint index (Z->d1, J2->q2, J3->q3).
 double steps_per_unit(const RobotModel& model, int stepper);
 

@@ -22,6 +22,7 @@
 #include <mutex>
 #include <vector>
 
+#include "scaratwin/kinematics/motor.hpp"
 #include "scaratwin/core/result.hpp"
 #include "scaratwin/kinematics/robot_model.hpp"
 #include "scaratwin/trajectory/trajectory.hpp"
@@ -101,6 +102,10 @@ class Twin {
   // after their time), never more TP in flight than the device's free slots. Returns when
   // every point is acknowledged (the robot is then moving).
   Result<TrajectoryLoad> load_trajectory(const JointTrajectory& trajectory);
+  // The side of its dead band each joint rests on (a calibrated description's backlash is
+  // made up by leading each point by half of it in the direction the joint moves): the
+  // homing's after HM, then each loaded trajectory's last.
+  void set_directions(const MotionDirections& dir);
 
   // Closes / opens the gripper (physical: servo to the closed / open angle of the robot
   // description; virtual: GR 1 / 0).
@@ -120,6 +125,7 @@ class Twin {
   SimChannel* virtual_;
   TwinOptions options_;
   std::uint16_t jd_seq_ = 0;
+  MotionDirections last_dir_{};
   mutable std::mutex log_mutex_;
   std::vector<PhysicalJoints> log_;
 };
