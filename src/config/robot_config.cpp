@@ -468,7 +468,8 @@ Result<RobotModel> parse_robot_config(std::string_view toml_text, std::string_vi
     cam.number("fovy_deg", m.scene.camera.fovy_deg);
     cam.integer("width_px", m.scene.camera.width_px, 16, 4096);
     cam.integer("height_px", m.scene.camera.height_px, 16, 4096);
-    cam.reject_unknown("pos_m, look_at_m, fovy_deg, width_px, height_px");
+    cam.number("roll_deg", m.scene.camera.roll_rad, 1.0 / kDegPerRad);
+    cam.reject_unknown("pos_m, look_at_m, fovy_deg, width_px, height_px, roll_deg");
     scene.reject_unknown("table_z_m, cube_size_m, grasp_z_m, approach_height_m, trays, camera");
   }
   read_physical(top, m.physical);

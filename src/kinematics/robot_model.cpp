@@ -41,7 +41,7 @@ RobotModel paper_robot() {
   m.scene.trays[static_cast<int>(CubeColor::kRed)] = {0.130, -0.136, 0.05};
   m.scene.trays[static_cast<int>(CubeColor::kGreen)] = {0.182, -0.096, 0.05};
   m.scene.trays[static_cast<int>(CubeColor::kBlue)] = {0.212, -0.039, 0.05};
-  m.scene.camera = {{0.15, 0.0, 0.45}, {0.15, 0.0, -0.03}, 45.0, 640, 480};
+  m.scene.camera = {{0.15, 0.0, 0.45}, {0.15, 0.0, -0.03}, 45.0, 640, 480, 0.0};
   return m;
 }
 
@@ -193,6 +193,10 @@ Status validate(const RobotModel& m) {
   }
   if (!(c.fovy_deg > 1.0 && c.fovy_deg < 170.0)) {
     return invalid(fmt::format("scene.camera.fovy_deg = {}: must be in (1, 170)", c.fovy_deg));
+  }
+  if (!(std::abs(c.roll_rad) <= kPi)) {
+    return invalid(
+        fmt::format("scene.camera.roll_deg = {}: must be in [-180, 180]", rad_to_deg(c.roll_rad)));
   }
   return Ok{};
 }

@@ -27,7 +27,7 @@ RobotModel as_built_robot(const RobotModel& description, const AsBuilt& a) {
   m.dh[1].a_m += a[AsBuiltParam::kA2];
   m.dh[2].a_m += a[AsBuiltParam::kA3];
   m.dh[3].a_m += a[AsBuiltParam::kJawOffset];
-  // the camera's mount: its position, and its aim tilted about the camera's x and y axes
+  // the camera's mount: its position, its aim tilted about the camera's x and y axes, its roll
   CameraModel& cam = m.scene.camera;
   const std::array<double, 3> shift{a[AsBuiltParam::kCameraX], a[AsBuiltParam::kCameraY],
                                     a[AsBuiltParam::kCameraZ]};
@@ -42,6 +42,8 @@ RobotModel as_built_robot(const RobotModel& description, const AsBuilt& a) {
   // along x (small angles)
   cam.look_at_m[1] += dist * std::tan(a[AsBuiltParam::kCameraTiltX]);
   cam.look_at_m[0] += dist * std::tan(a[AsBuiltParam::kCameraTiltY]);
+  // and turned about its optical axis
+  cam.roll_rad += a[AsBuiltParam::kCameraRoll];
   return m;
 }
 

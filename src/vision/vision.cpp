@@ -63,6 +63,15 @@ CameraAxes camera_axes(const CameraModel& cam) {
   a.x = unit(cross(f, up_hint));
   a.y = cross(a.x, f);
   a.z = {-f[0], -f[1], -f[2]};
+  // the roll turns the camera about its own z axis
+  if (cam.roll_rad != 0.0) {
+    const double c = std::cos(cam.roll_rad), s = std::sin(cam.roll_rad);
+    const Vec3 x = a.x, y = a.y;
+    for (int i = 0; i < 3; ++i) {
+      a.x[i] = c * x[i] + s * y[i];
+      a.y[i] = -s * x[i] + c * y[i];
+    }
+  }
   return a;
 }
 

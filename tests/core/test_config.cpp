@@ -60,6 +60,17 @@ TEST(Config, WrongTypeIsNamed) {
       << m.error().message;
 }
 
+TEST(Config, CameraRollIsReadInDegreesAndBounded) {
+  auto c = parse_robot_config("[scene.camera]\nroll_deg = 2.5\n", "x.toml");
+  ASSERT_TRUE(c.ok()) << c.error().message;
+  EXPECT_DOUBLE_EQ(c->scene.camera.roll_rad, deg_to_rad(2.5));
+  auto bad = parse_robot_config("[scene.camera]\nroll_deg = 200\n", "x.toml");
+  ASSERT_FALSE(bad.ok());
+  EXPECT_NE(bad.error().message.find("scene.camera.roll_deg = 200: must be in [-180, 180]"),
+            std::string::npos)
+      << bad.error().message;
+}
+
 TEST(Config, BadValueNamesKeyValueAndValidRange) {
   auto m = parse_robot_config("[limits]\nj2_deg = [100.0, -100.0]\n", "x.toml");
   ASSERT_FALSE(m);

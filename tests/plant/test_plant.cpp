@@ -111,6 +111,18 @@ AsBuilt with(std::initializer_list<std::pair<AsBuiltParam, double>> values) {
   return a;
 }
 
+TEST(AsBuilt, TheCameraMountIsShiftedTiltedAndTurned) {
+  const RobotModel nominal = paper_robot();
+  const RobotModel built = as_built_robot(nominal, with({{AsBuiltParam::kCameraZ, 0.002},
+                                                         {AsBuiltParam::kCameraTiltY, 0.01},
+                                                         {AsBuiltParam::kCameraRoll, -0.015}}));
+  const CameraModel& c = built.scene.camera;
+  EXPECT_DOUBLE_EQ(c.pos_m[2], nominal.scene.camera.pos_m[2] + 0.002);
+  // the aim moves along x by the distance to the aim point times tan(tilt)
+  EXPECT_NEAR(c.look_at_m[0] - nominal.scene.camera.look_at_m[0], 0.48 * std::tan(0.01), 1e-12);
+  EXPECT_DOUBLE_EQ(c.roll_rad, -0.015);
+}
+
 TEST(Plant, AReversalShowsExactlyTheBacklash) {
   // The elbow: its motor alone moves it (turning the J2 motor alone would also turn the
   // elbow through the belt coupling, whose reaction nudges a free shoulder)

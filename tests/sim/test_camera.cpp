@@ -108,5 +108,42 @@ TEST_F(SimCamera, RejectsSizesBeyondTheBufferAndSavesFiles) {
   EXPECT_FALSE(decode_png(std::vector<std::uint8_t>{1, 2, 3}).ok());
 }
 
+// A camera turned about its optical axis: MuJoCo renders each cube where project() puts it,
+// and that is not where the unturned model would (so both the MJCF and project() must honour
+// the roll; dropping it from either fails).
+TEST(SimCameraRoll, CubesAreWhereTheTurnedCameraProjectsThem) {
+  auto m = load_robot_config(SCARATWIN_CONFIG_FILE);
+  ASSERT_TRUE(m.ok());
+  RobotModel robot = *m;
+  robot.scene.camera.roll_rad = deg_to_rad(25.0);
+  auto sim = Simulation::create(robot);
+  ASSERT_TRUE(sim.ok()) << sim.error().message;
+  auto cam = Camera::create(**sim);
+  ASSERT_TRUE(cam.ok()) << cam.error().message;
+  ASSERT_TRUE((*sim)->set_joints({0.12, deg_to_rad(115.0), 0.0, 0.0}).ok());
+  const double spots[kNumColors][2] = {{0.27, 0.12}, {0.15, 0.16}, {0.03, -0.12}};
+  for (int c = 0; c < kNumColors; ++c) {
+    ASSERT_TRUE((*sim)->spawn_cube(CubeColor(c), spots[c][0], spots[c][1], 0.0).ok());
+  }
+  ASSERT_TRUE((*sim)->step(250).ok());
+  const CameraModel& turned = robot.scene.camera;
+  CameraModel upright = turned;
+  upright.roll_rad = 0.0;
+  auto img = (*cam)->render(**sim, turned.width_px, turned.height_px);
+  ASSERT_TRUE(img.ok()) << img.error().message;
+  auto png = encode_png(*img);
+  ASSERT_TRUE(png.ok());
+  auto decoded = decode_png(*png);
+  ASSERT_TRUE(decoded.ok());
+  for (const CubeState& c : (*sim)->cubes()) {
+    const PixelPoint p = project(turned, turned.width_px, turned.height_px, c.pos_m);
+    ASSERT_TRUE(p.visible) << color_name(c.color);
+    EXPECT_EQ(dominant(pixel(*decoded, p.u_px, p.v_px)), static_cast<int>(c.color))
+        << color_name(c.color) << " cube at (" << p.u_px << ", " << p.v_px << ")";
+    const PixelPoint q = project(upright, turned.width_px, turned.height_px, c.pos_m);
+    EXPECT_GT(std::hypot(p.u_px - q.u_px, p.v_px - q.v_px), 30.0) << color_name(c.color);
+  }
+}
+
 }  // namespace
 }  // namespace scaratwin::sim

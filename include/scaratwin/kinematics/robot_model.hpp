@@ -121,13 +121,16 @@ struct Tray {
   double size_m = 0.05;
 };
 
-// The fixed overhead camera: position, look-at point, vertical field of view and image size.
+// The fixed overhead camera: position, look-at point, vertical field of view, image size and
+// roll (a rotation of the camera about its optical axis, right-handed about the camera's z axis,
+// which points out of the back of the camera: the picture's content turns the other way).
 struct CameraModel {
   std::array<double, 3> pos_m{0.12, 0.0, 0.45};
   std::array<double, 3> look_at_m{0.12, 0.0, -0.03};
   double fovy_deg = 60.0;
   int width_px = 640;
   int height_px = 480;
+  double roll_rad = 0.0;
 };
 
 // The work scene, in the robot base frame (z = 0 at the base; the table top below it).

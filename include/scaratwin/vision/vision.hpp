@@ -31,8 +31,8 @@ Result<RgbImage> decode_png(const std::string& png_bytes);
 
 // Axes of the overhead camera in B, as MuJoCo cameras use them: x to the right of the image,
 // y up in the image, the camera looking along -z. Derived from pos_m and look_at_m (the image
-// "up" is +z of B projected, or +x of B when the camera looks straight down). The simulator's
-// MJCF places its camera with these.
+// "up" is +z of B projected, or +x of B when the camera looks straight down), then turned by
+// roll_rad about z. The simulator's MJCF places its camera with these.
 struct CameraAxes {
   std::array<double, 3> x{}, y{}, z{};
 };
