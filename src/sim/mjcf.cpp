@@ -221,9 +221,23 @@ Result<std::string> make_mjcf(const RobotModel& model, const MjcfOptions& o) {
   // the tracking marker: a magenta disc on the wrist axis, above the elbow link's end, where
   // the overhead camera sees it at every pose
   x += fmt::format(
-      "            <geom name=\"{}\" type=\"cylinder\" size=\"{} 0.0005\" pos=\"0 0 {}\" "
+      "            <geom name=\"{}\" type=\"cylinder\" size=\"{} 0.0001\" pos=\"0 0 {}\" "
       "mass=\"0.001\" rgba=\"1 0 1 1\"/>\n",
       kMarkerGeom, num(kMarkerRadiusM), num(marker_above_wrist_m(model)));
+  // the flag: a thin bracket from the wrist axis out along the gripper's x axis, carrying the
+  // cyan disc at the magenta one's height
+  {
+    const double h = marker_above_wrist_m(model);
+    const double from = kMarkerRadiusM, to = kFlagOffsetM - kFlagMarkerRadiusM;
+    x += fmt::format(
+        "            <geom type=\"box\" size=\"{}\" pos=\"{}\" mass=\"0.0005\" "
+        "rgba=\"0.3 0.3 0.33 1\"/>\n",
+        vec(0.5 * (to - from) + 0.001, 0.0015, 0.0004), vec(0.5 * (from + to), 0, h - 0.0009));
+    x += fmt::format(
+        "            <geom name=\"{}\" type=\"cylinder\" size=\"{} 0.0001\" pos=\"{}\" "
+        "mass=\"0.0005\" rgba=\"0 1 1 1\"/>\n",
+        kFlagMarkerGeom, num(kFlagMarkerRadiusM), vec(kFlagOffsetM, 0, h));
+  }
   // fingers: slide along the wrist x axis; joint value = extra opening beyond closed
   for (int side = 0; side < 2; ++side) {
     const double s = side == 0 ? 1.0 : -1.0;
@@ -329,12 +343,41 @@ double marker_above_wrist_m(const RobotModel& model) {
   return -model.dh[2].d_m + 0.0155;
 }
 
+namespace {
+
+// The wrist axis's position in the base plane and the heading of the gripper's x axis, along
+// the body chain of make_mjcf() (the DH rows with their theta offsets).
+struct WristPlanar {
+  double x = 0.0, y = 0.0, heading = 0.0;
+};
+WristPlanar wrist_planar(const RobotModel& model, const JointVector& q) {
+  const auto& dh = model.dh;
+  WristPlanar w;
+  double h = dh[0].theta_rad;
+  w.x = dh[0].a_m * std::cos(h);
+  w.y = dh[0].a_m * std::sin(h);
+  for (int i = 1; i <= 2; ++i) {
+    h += dh[i].theta_rad + q[i];
+    w.x += dh[i].a_m * std::cos(h);
+    w.y += dh[i].a_m * std::sin(h);
+  }
+  w.heading = h + dh[3].theta_rad + q[3];
+  return w;
+}
+
+}  // namespace
+
 std::array<double, 3> marker_position(const RobotModel& model, const JointVector& q) {
   const auto& dh = model.dh;
-  const double x = dh[0].a_m + dh[1].a_m * std::cos(q[1]) + dh[2].a_m * std::cos(q[1] + q[2]);
-  const double y = dh[1].a_m * std::sin(q[1]) + dh[2].a_m * std::sin(q[1] + q[2]);
+  const WristPlanar w = wrist_planar(model, q);
   const double z = q[0] + dh[0].d_m + dh[1].d_m + dh[2].d_m + marker_above_wrist_m(model);
-  return {x, y, z};
+  return {w.x, w.y, z};
+}
+
+std::array<double, 3> flag_marker_position(const RobotModel& model, const JointVector& q) {
+  const WristPlanar w = wrist_planar(model, q);
+  const std::array<double, 3> m = marker_position(model, q);
+  return {w.x + kFlagOffsetM * std::cos(w.heading), w.y + kFlagOffsetM * std::sin(w.heading), m[2]};
 }
 
 }  // namespace scaratwin::sim

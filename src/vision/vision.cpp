@@ -173,16 +173,20 @@ std::vector<CubeDetection> detect_cubes(const RgbImage& img, const RobotModel& m
   return out;
 }
 
-bool detect_marker(const RgbImage& image, double& col, double& row, int min_area_px,
-                   double min_channel, double green_ratio) {
+namespace {
+
+// Centroid of the pixels whose channels (a, b, c) = (rgb[ia], rgb[ib], rgb[ic]) have a and b
+// at least `lo` and c below `ratio` of the smaller of a and b.
+bool centroid_of(const RgbImage& image, int ia, int ib, int ic, double min_channel, double ratio,
+                 int min_area_px, double& col, double& row) {
   const double lo = 255.0 * min_channel;
   double su = 0.0, sv = 0.0;
   int n = 0;
   for (int v = 0; v < image.height; ++v) {
     for (int u = 0; u < image.width; ++u) {
       const std::uint8_t* p = &image.rgb[3 * (static_cast<std::size_t>(v) * image.width + u)];
-      const double r = p[0], g = p[1], b = p[2];
-      if (r >= lo && b >= lo && g < green_ratio * std::min(r, b)) {
+      const double a = p[ia], b = p[ib], c = p[ic];
+      if (a >= lo && b >= lo && c < ratio * std::min(a, b)) {
         su += u + 0.5;
         sv += v + 0.5;
         ++n;
@@ -193,6 +197,18 @@ bool detect_marker(const RgbImage& image, double& col, double& row, int min_area
   col = su / n;
   row = sv / n;
   return true;
+}
+
+}  // namespace
+
+bool detect_marker(const RgbImage& image, double& col, double& row, int min_area_px,
+                   double min_channel, double green_ratio) {
+  return centroid_of(image, 0, 2, 1, min_channel, green_ratio, min_area_px, col, row);
+}
+
+bool detect_flag_marker(const RgbImage& image, double& col, double& row, int min_area_px,
+                        double min_channel, double red_ratio) {
+  return centroid_of(image, 1, 2, 0, min_channel, red_ratio, min_area_px, col, row);
 }
 
 }  // namespace scaratwin

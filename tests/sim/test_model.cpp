@@ -43,6 +43,16 @@ void expect_site_matches_dh(const RobotModel& robot, int count, unsigned seed) {
     for (int a = 0; a < 3; ++a) {
       for (int b = 0; b < 3; ++b) ASSERT_NEAR(r[3 * a + b], x_bt(a, b), 1e-9) << i;
     }
+    // both markers where marker_position() and flag_marker_position() say
+    const std::array<double, 3> want[2] = {marker_position(robot, q),
+                                           flag_marker_position(robot, q)};
+    const char* geoms[2] = {kMarkerGeom, kFlagMarkerGeom};
+    for (int k = 0; k < 2; ++k) {
+      const int id = mj_name2id((*sim)->model(), mjOBJ_GEOM, geoms[k]);
+      ASSERT_GE(id, 0) << geoms[k];
+      const double* p = (*sim)->data()->geom_xpos + 3 * id;
+      for (int a = 0; a < 3; ++a) ASSERT_NEAR(p[a], want[k][a], 1e-9) << geoms[k] << " " << i;
+    }
   }
   EXPECT_LT(worst_m, 1e-9);
   EXPECT_LT(worst_yaw, 1e-9);

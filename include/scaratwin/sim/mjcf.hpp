@@ -30,6 +30,15 @@ double marker_above_wrist_m(const RobotModel& model);
 // Where the marker's centre is for joints q (in B, m): the wrist axis (the standard DH chain
 // of the description for links 1-3; the marker does not turn with q4).
 std::array<double, 3> marker_position(const RobotModel& model, const JointVector& q);
+// The second marker, which shows the wrist's angle: a cyan disc (rgba 0 1 1) on a thin flag
+// fixed to the gripper, kFlagOffsetM off the wrist axis along the gripper's x axis, at the
+// magenta marker's height (on top of the elbow link's end, so that the elbow link never hides
+// it at any wrist angle).
+inline constexpr const char* kFlagMarkerGeom = "flag_marker";
+inline constexpr double kFlagMarkerRadiusM = 0.005;
+inline constexpr double kFlagOffsetM = 0.025;
+// Where its centre is for joints q (in B, m): it turns with q4 (and dh.j4's theta offset).
+std::array<double, 3> flag_marker_position(const RobotModel& model, const JointVector& q);
 
 struct MjcfOptions {
   int cubes_per_color = 4;      // size of the cube pool of each colour, >= 1
