@@ -27,10 +27,13 @@
 
 #include <nlohmann/json.hpp>
 
+#include "calibrate_step.hpp"
 #include "commands.hpp"
 #include "demo_figures.hpp"
+#include "rig.hpp"
 #include "demo_ticker.hpp"
 #include "emulator_side.hpp"
+#include "scaratwin/config/robot_config.hpp"
 #include "scaratwin/core/units.hpp"
 #include "scaratwin/hub/analysis.hpp"
 #include "scaratwin/hub/hub.hpp"
@@ -38,6 +41,7 @@
 #include "scaratwin/hub/report.hpp"
 #include "scaratwin/hub/tasks.hpp"
 #include "scaratwin/hub/tool_tracker.hpp"
+#include "scaratwin/vision/webcam.hpp"
 
 namespace scaratwin::cli {
 namespace {
@@ -52,6 +56,11 @@ struct DemoArgs {
   double robot_speed = 1.0;
   unsigned seed = 7;
   double mirror_s = 6.0;
+  bool no_calibrate = false;
+  long long as_built_seed = -1;  // the emulated robot's build (-1: the description's)
+  // set by run_demo
+  std::string base_config;
+  std::filesystem::path out_dir;
 };
 
 std::atomic<bool> g_interrupted{false};
@@ -123,6 +132,64 @@ Result<DemoOutcome> run_phases(Hub& hub, TwinDb& db, const DemoArgs& a, std::int
     Status s = hub.home();
     (void)hub.end_run(s.ok());
     if (!s) return s.error();
+  }
+
+  // calibration: the twin measures the robot it is connected to and takes the calibrated
+  // description for everything that follows
+  const bool calibrating = !a.no_calibrate && inst.side && inst.truth && inst.camera;
+  if (calibrating) {
+    fmt::print("==> [1+] calibration: the twin measures the robot as built and learns it\n");
+    auto run = hub.begin_run("calibration", "endstops, pattern, markers, touch-offs", demo);
+    if (!run) return run.error();
+    Ticker t(hub, "calibrate");
+    const RobotModel base = model;
+    const std::vector<ToolPose> poses = test_poses(base, 12, a.seed + 1000);
+    fmt::print("    before: the robot at {} test poses, the description as it is\n", poses.size());
+    auto before = measure_test_poses(hub, *inst.side, poses);
+    if (!before) return before.error();
+    EmulatedOperator op(*inst.side);
+    CalibrationOptions co;
+    co.progress = [](const std::string& line) {
+      fmt::print("    {}\n", line);
+      std::fflush(stdout);
+    };
+    const std::filesystem::path overlay = a.out_dir / "scara.calibrated.toml";
+    auto cal = calibrate_and_write(hub, *inst.camera, op, a.base_config, overlay, co);
+    if (!cal) {
+      (void)hub.end_run(false);
+      return cal.error();
+    }
+    hub.set_model(cal->calibrated);
+    fmt::print("    after: the same test poses, the calibrated description\n");
+    auto after = measure_test_poses(hub, *inst.side, poses);
+    if (!after) return after.error();
+    CalibrationFigures cf;
+    cf.before = error_stats(*before);
+    cf.after = error_stats(*after);
+    cf.test_poses = static_cast<int>(poses.size());
+    cf.fit_poses = cal->fit.marker_views + cal->fit.touch_offs;
+    cf.robot_s = cal->robot_s;
+    cf.fit_s = cal->fit.fit_seconds;
+    cf.pixel_rms = cal->fit.pixel_rms;
+    cf.overlay = overlay.string();
+    const auto truth = true_parameters(base);
+    for (int i = 0; i < calib::kParamCount; ++i) {
+      const auto& info = calib::param_info(i);
+      cf.parameters.push_back({std::string(info.key), cal->fit.value[i] / info.to_si,
+                               cal->fit.std_error[i] / info.to_si, truth[i] / info.to_si});
+    }
+    fmt::print(
+        "    virtual -> true tool at {} test poses: before mean {:.2f} p95 {:.2f} max {:.2f} mm; "
+        "after mean {:.2f} p95 {:.2f} max {:.2f} mm\n",
+        poses.size(), m_to_mm(cf.before.mean_m), m_to_mm(cf.before.p95_m),
+        m_to_mm(cf.before.max_m), m_to_mm(cf.after.mean_m), m_to_mm(cf.after.p95_m),
+        m_to_mm(cf.after.max_m));
+    hub.record_metric(metric::kCalibBeforeMeanMm, m_to_mm(cf.before.mean_m), "mm");
+    hub.record_metric(metric::kCalibBeforeMaxMm, m_to_mm(cf.before.max_m), "mm");
+    hub.record_metric(metric::kCalibAfterMeanMm, m_to_mm(cf.after.mean_m), "mm");
+    hub.record_metric(metric::kCalibAfterMaxMm, m_to_mm(cf.after.max_m), "mm");
+    out.calibration = std::move(cf);
+    (void)hub.end_run(true);
   }
 
   // 2. mirror: the robot is moved by hand (its jog buttons; on a real board, which we cannot
@@ -259,7 +326,19 @@ Result<DemoOutcome> run_phases(Hub& hub, TwinDb& db, const DemoArgs& a, std::int
       std::this_thread::sleep_for(300ms);
       auto frame = inst.camera->grab(model.scene.camera.width_px, model.scene.camera.height_px);
       if (!frame) return frame.error();
-      const auto found = detect_cubes(frame->image, model);
+      auto found = detect_cubes(frame->image, model);
+      if (model.webcam.valid) {
+        // the calibrated webcam: its pose and lens put each cube's centre on the table
+        const WebcamModel cam = calib::from_description(model.webcam);
+        for (CubeDetection& d : found) {
+          std::array<double, 3> p{};
+          if (unproject_to_plane(cam, d.col, d.row, frame->image.width, frame->image.height,
+                                 model.scene.table_z_m + 0.5 * model.scene.cube_size_m, p)) {
+            d.x_m = p[0];
+            d.y_m = p[1];
+          }
+        }
+      }
       where.clear();
       for (const CubeDetection& d : found) {
         where.push_back(SortItem{d.color, d.x_m, d.y_m, 0.0});
@@ -433,64 +512,23 @@ int run_demo(const CommonOptions& common, const DemoArgs& a) {
   std::signal(SIGTERM, on_interrupt);
   fmt::print("scaratwin demo: results in {}\n", out.string());
 
-  // the virtual robot.
-  std::vector<std::string> sim_args{"--port", "0", "--http-port", std::to_string(a.http_port)};
-  if (!common.config_path.empty())
-    sim_args.insert(sim_args.end(), {"--config", common.config_path});
-  auto sim = ChildProcess::start(sibling_executable("scaratwin-sim"), sim_args, out / "sim.log");
-  if (!sim) {
-    std::fprintf(stderr, "scaratwin demo: %s\n", sim.error().message.c_str());
+  RigOptions ro;
+  ro.config_path = common.config_path;
+  ro.serial = a.serial;
+  ro.http_port = a.http_port;
+  ro.robot_speed = a.robot_speed;
+  if (a.as_built_seed >= 0) {
+    ro.as_built_seed = static_cast<std::uint64_t>(a.as_built_seed);
+    // the build the emulator draws (the report compares the calibration with it)
+    model->physical.as_built.seed = static_cast<std::uint64_t>(a.as_built_seed);
+  }
+  auto rig_r = start_rig(ro, out);
+  if (!rig_r) {
+    std::fprintf(stderr, "scaratwin demo: %s\n", rig_r.error().message.c_str());
     return kExitFailure;
   }
-  auto listening = (*sim)->wait_for_line("listening on", 30s);
-  if (!listening) {
-    std::fprintf(stderr, "scaratwin demo: simulator: %s\n", listening.error().message.c_str());
-    return kExitFailure;
-  }
-  const size_t colon = listening->rfind(':', listening->find(" (speed"));
-  const std::uint16_t sim_port =
-      static_cast<std::uint16_t>(std::stoi(listening->substr(colon + 1)));
-  if (auto ui = (*sim)->wait_for_line("http://", 5s); ui) {
-    fmt::print("3D view: {}\n", ui->substr(ui->find("http://")));
-  }
-
-  // the physical robot: a real board or our firmware in the emulator.
-  std::unique_ptr<ChildProcess> robot;
-  std::string device = a.serial;
-  std::uint16_t side_port = 0;  // the emulator's side channel (its buttons, its truth)
-  std::string plant = "real";   // what the physical robot is: real, as-built or ideal
-  if (device.empty()) {
-    std::vector<std::string> robot_args{"--speed", fmt::format("{}", a.robot_speed)};
-    if (!common.config_path.empty()) {
-      robot_args.insert(robot_args.end(), {"--config", common.config_path});
-    }
-    auto r =
-        ChildProcess::start(sibling_executable("scaratwin-robot"), robot_args, out / "robot.log");
-    if (!r) {
-      std::fprintf(stderr, "scaratwin demo: %s\n", r.error().message.c_str());
-      return kExitFailure;
-    }
-    robot = std::move(*r);
-    auto pty = robot->wait_for_line("pty: ", 30s);
-    if (!pty) {
-      std::fprintf(stderr, "scaratwin demo: emulator: %s\n", pty.error().message.c_str());
-      return kExitFailure;
-    }
-    device = pty->substr(pty->find("pty: ") + 5);
-    if (auto pl = robot->wait_for_line("plant: ", 1s); pl) {
-      plant = pl->substr(pl->find("plant: ") + 7);
-      plant = plant.substr(0, plant.find(' '));
-    }
-    fmt::print("physical robot: firmware in the AVR emulator on {}\n", device);
-    auto side = robot->wait_for_line("side channel: ", 5s);
-    if (!side) {
-      std::fprintf(stderr, "scaratwin demo: emulator: %s\n", side.error().message.c_str());
-      return kExitFailure;
-    }
-    side_port = static_cast<std::uint16_t>(std::stoi(side->substr(side->rfind(':') + 1)));
-  } else {
-    fmt::print("physical robot: {}\n", device);
-  }
+  Rig& rig = *rig_r;
+  const std::string plant = rig.plant;
 
   auto db = TwinDb::open(out / "twin.db");
   if (!db) {
@@ -498,8 +536,8 @@ int run_demo(const CommonOptions& common, const DemoArgs& a) {
     return kExitFailure;
   }
   HubOptions ho;
-  ho.serial_device = device;
-  ho.sim_port = sim_port;
+  ho.serial_device = rig.device;
+  ho.sim_port = rig.sim_port;
   auto hub = Hub::connect(*model, ho, db->get());
   if (!hub) {
     std::fprintf(stderr, "scaratwin demo: %s\n", hub.error().message.c_str());
@@ -510,42 +548,13 @@ int run_demo(const CommonOptions& common, const DemoArgs& a) {
     std::fprintf(stderr, "scaratwin demo: %s\n", demo.error().message.c_str());
     return kExitFailure;
   }
-  std::optional<EmulatorSide> side;
-  std::unique_ptr<TruthRecorder> truth;
-  if (side_port != 0) {
-    auto b = EmulatorSide::connect(side_port);
-    if (!b) {
-      std::fprintf(stderr, "scaratwin demo: %s\n", b.error().message.c_str());
-      return kExitFailure;
-    }
-    side.emplace(std::move(*b));
-    if (plant == "as-built") {
-      // the measuring instrument: the truth at 200 Hz, read only for the figures
-      auto t = TruthRecorder::start(side_port, 200.0);
-      if (!t) {
-        std::fprintf(stderr, "scaratwin demo: %s\n", t.error().message.c_str());
-        return kExitFailure;
-      }
-      truth = std::move(*t);
-    }
-  }
-  fmt::print("physical robot: {}\n", plant == "real" ? "a real board" : "emulated, plant " + plant);
   const auto t0 = std::chrono::steady_clock::now();
-  std::unique_ptr<NetCamera> webcam;
-  if (robot && plant == "as-built") {
-    if (auto cam_line = robot->wait_for_line("camera: ", 2s); cam_line) {
-      auto c = NetCamera::connect(
-          "127.0.0.1",
-          static_cast<std::uint16_t>(std::stoi(cam_line->substr(cam_line->rfind(':') + 1))));
-      if (!c) {
-        std::fprintf(stderr, "scaratwin demo: %s\n", c.error().message.c_str());
-        return kExitFailure;
-      }
-      webcam = std::move(*c);
-    }
-  }
-  const Instruments inst{side ? &*side : nullptr, truth.get(), webcam.get()};
-  auto outcome = run_phases(**hub, **db, a, *demo, inst);
+  DemoArgs args = a;
+  args.out_dir = out;
+  args.base_config =
+      common.config_path.empty() ? default_robot_config_path().string() : common.config_path;
+  const Instruments inst{rig.side ? &*rig.side : nullptr, rig.truth.get(), rig.webcam.get()};
+  auto outcome = run_phases(**hub, **db, args, *demo, inst);
   const double dur = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   const bool ok = outcome && physical_ok(*outcome, kNumColors);
   if (outcome) {
@@ -586,8 +595,7 @@ int run_demo(const CommonOptions& common, const DemoArgs& a) {
     while (!g_interrupted) std::this_thread::sleep_for(200ms);
   }
   hub->reset();
-  if (robot) robot->stop();
-  (*sim)->stop();
+  rig.stop();
   return ok ? kExitOk : kExitFailure;
 }
 
@@ -611,6 +619,11 @@ void add_demo_command(CLI::App& app, CommonOptions& common, Runner& run) {
                   "emulated robot: emulated seconds per wall second (1 = real time)")
       ->capture_default_str();
   cmd->add_option("--seed", a->seed, "seed of the cube layout")->capture_default_str();
+  cmd->add_flag("--no-calibrate", a->no_calibrate,
+                "skip the calibration (the twin keeps the description as it is)");
+  cmd->add_option("--as-built-seed", a->as_built_seed,
+                  "emulated robot: the seed of its build (default: the description's)")
+      ->check(CLI::Range(0LL, 2147483647LL));
   add_common_options(*cmd, common, false);
   cmd->callback([&common, &run, a] { run = [&common, a] { return run_demo(common, *a); }; });
 }

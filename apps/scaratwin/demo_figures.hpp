@@ -18,6 +18,21 @@
 
 namespace scaratwin::cli {
 
+// Calibration, measured: the virtual -> true tool at test poses the fit did not use, before
+// and after, and each identified parameter beside the true build.
+struct CalibrationParameter {
+  std::string key;  // with its unit (calibration::param_info)
+  double identified = 0.0, std_error = 0.0, truth = 0.0;  // in the key's unit (truth NaN: none)
+};
+struct CalibrationFigures {
+  ToolErrorStats before, after;
+  int test_poses = 0;
+  int fit_poses = 0;  // marker views and touch-offs
+  double robot_s = 0.0, fit_s = 0.0, pixel_rms = 0.0;
+  std::vector<CalibrationParameter> parameters;
+  std::string overlay;
+};
+
 struct DemoOutcome {
   int in_trays_prediction = 0;
   int in_trays_replay = 0;  // virtual: the simulator mirroring the robot
@@ -30,6 +45,7 @@ struct DemoOutcome {
   std::optional<std::array<long long, 3>> steps_lost_truth;
   std::optional<std::array<int, 3>> steps_lost_homing;
   LatencyFigures latency;
+  std::optional<CalibrationFigures> calibration;
 };
 
 // The sorting succeeded: on the physical table when it can be seen (the emulated robot's

@@ -124,6 +124,12 @@ Status EmulatorSide::place(CubeColor color, double x_m, double y_m) {
   return Ok{};
 }
 
+Status EmulatorSide::pattern(bool on) {
+  auto r = command(on ? "pattern on" : "pattern off");
+  if (!r) return r.error();
+  return Ok{};
+}
+
 Status EmulatorSide::clear() {
   auto r = command("clear");
   if (!r) return r.error();

@@ -45,6 +45,8 @@ class EmulatorSide {
   // The operator puts a cube on the physical table / takes them all away.
   Status place(CubeColor color, double x_m, double y_m);
   Status clear();
+  // The operator lays the printed calibration pattern on the table / takes it away.
+  Status pattern(bool on);
   // The physical cubes (truth).
   Result<std::vector<protocol::ObjectPose>> cubes();
   Result<TruthSample> query();

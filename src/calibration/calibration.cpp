@@ -161,10 +161,7 @@ std::array<double, 3> axis_marker_B(const RobotModel& model, const JointVector& 
 }
 
 std::array<double, 3> flag_marker_B(const RobotModel& model, const JointVector& q) {
-  // the cyan flag: 25 mm out along the gripper's x axis, at the height of the axis marker
-  const std::array<double, 3> a = sim::marker_position(model, q);
-  const double yaw = forward(model, q).yaw_rad;
-  return {a[0] + 0.025 * std::cos(yaw), a[1] + 0.025 * std::sin(yaw), a[2]};
+  return sim::flag_marker_position(model, q);
 }
 
 std::optional<std::string> missing_measurement(const RobotModel& base, const Measurements& m) {

@@ -191,16 +191,16 @@ void Hub::on_robot_packet(pr::SerialFromDevice&& msg, const tr::RxPacket& rx) {
 void Hub::on_device_state(const pr::DeviceState& st, const tr::RxPacket& rx) {
   PhysicalState ps;
   ps.raw = st;
-  ps.q = motors_to_joints(model_,
-                          {static_cast<double>(st.steps[0]), static_cast<double>(st.steps[1]),
-                           static_cast<double>(st.steps[2])},
-                          rad_to_deg(st.wrist_rad));
   ps.grip_deg = rad_to_deg(st.grip_rad);
   ps.rx_steady_us = rx.steady_us;
   ps.valid = true;
   bool mirror;
   {
     std::lock_guard<std::mutex> lock(mu_);
+    ps.q = motors_to_joints(model_,
+                            {static_cast<double>(st.steps[0]), static_cast<double>(st.steps[1]),
+                             static_cast<double>(st.steps[2])},
+                            rad_to_deg(st.wrist_rad));
     // a calibrated backlash: each joint trails its motor by half its dead band
     if (state_count_ > 0) track_directions(report_dir_, report_mid_, ps.q);
     report_mid_ = ps.q;
@@ -342,6 +342,16 @@ Status Hub::wait_flags(const std::function<bool(std::uint32_t)>& done, double ti
   }
   if (interrupted_) return hub_error(kInterrupted);
   return Ok{};
+}
+
+void Hub::set_model(const RobotModel& model) {
+  std::lock_guard<std::mutex> lock(mu_);
+  model_ = model;
+}
+
+MotionDirections Hub::directions() const {
+  std::lock_guard<std::mutex> lock(mu_);
+  return report_dir_;
 }
 
 Status Hub::wait_idle(double timeout_s) {

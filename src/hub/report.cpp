@@ -118,6 +118,14 @@ constexpr PaperRow kPaperRows[] = {
     {metric::kPhysicalCubesInTray, "colour sorting: physical cubes in their trays (the truth)",
      "3 of 3 (three runs)", "cubes"},
     {metric::kLostStepsTrue, "steps lost by the motors (the truth)", "not reported", "steps"},
+    {metric::kCalibBeforeMeanMm, "virtual vs the true tool at test poses, before calibration, mean",
+     "2-4 (virtual vs physical, uncalibrated)", "mm"},
+    {metric::kCalibBeforeMaxMm, "virtual vs the true tool at test poses, before calibration, max",
+     "not reported", "mm"},
+    {metric::kCalibAfterMeanMm, "virtual vs the true tool at test poses, after calibration, mean",
+     "no calibration", "mm"},
+    {metric::kCalibAfterMaxMm, "virtual vs the true tool at test poses, after calibration, max",
+     "no calibration", "mm"},
 };
 
 }  // namespace

@@ -92,6 +92,9 @@ class Hub {
   Hub& operator=(const Hub&) = delete;
 
   const RobotModel& model() const { return model_; }
+  // Replaces the description (a calibrated one after calibration): later conversions between
+  // step counts and joints, plans and the mirror use it. Call it between statements.
+  void set_model(const RobotModel& model);
 
   // --- runs: what is recorded goes to the current run ------------------------------------
   Result<std::int64_t> begin_run(const std::string& kind, const std::string& label,
@@ -116,6 +119,9 @@ class Hub {
   // a tool offset beyond the desync threshold raises a desync alarm.
   Status home(double timeout_s = 120.0);
   HomingCheck last_homing() const;
+  // The direction each stepper joint last moved, from the reports (homing resets it): which
+  // side of its dead band each joint rests on.
+  MotionDirections directions() const;
   // Waits until a state report shows the robot at rest (no jog, no trajectory).
   Status wait_idle(double timeout_s);
   // Prepares the robot for a new motion after whatever an earlier one left: a hold, a stop

@@ -35,6 +35,11 @@ inline constexpr const char* kVirtTrueMeanMm = "virtual_true_tool_mean_mm";
 inline constexpr const char* kVirtTrueMaxMm = "virtual_true_tool_max_mm";
 inline constexpr const char* kPhysicalCubesInTray = "physical_cubes_in_trays";
 inline constexpr const char* kLostStepsTrue = "lost_steps_truth";  // all axes
+// calibration: virtual vs true tool at test poses the fit did not use
+inline constexpr const char* kCalibBeforeMeanMm = "calibration_before_mean_mm";
+inline constexpr const char* kCalibBeforeMaxMm = "calibration_before_max_mm";
+inline constexpr const char* kCalibAfterMeanMm = "calibration_after_mean_mm";
+inline constexpr const char* kCalibAfterMaxMm = "calibration_after_max_mm";
 }  // namespace metric
 
 // Writes the report of `run` (and of the runs whose parent it is) to `html`.

@@ -1,0 +1,61 @@
+// Calibration as the command line runs it (`scaratwin calibrate` and the demo's calibration
+// step): the operator (scripted with the emulated robot: its hands place the pattern and its
+// eyes, the truth, guide the touch-offs; a person at a real robot), the overlay file, the
+// table of what was identified, and the test poses that measure the gap before and after.
+#pragma once
+
+#include <array>
+#include <filesystem>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "emulator_side.hpp"
+#include "scaratwin/hub/analysis.hpp"
+#include "scaratwin/hub/calibrate.hpp"
+
+namespace scaratwin::cli {
+
+// The operator of the emulated robot. Its eyes (the truth) see where the tool is, as a person
+// at the robot sees it; the twin only learns that the tool is on the mark.
+class EmulatedOperator : public CalibrationOperator {
+ public:
+  explicit EmulatedOperator(EmulatorSide& side) : side_(side) {}
+  Status pattern(bool on) override;
+  Status touch_off(Hub& hub, const std::string& name, const std::array<double, 3>& mark_B) override;
+
+ private:
+  EmulatorSide& side_;
+};
+
+// A person at a real robot, at this terminal.
+class TerminalOperator : public CalibrationOperator {
+ public:
+  Status pattern(bool on) override;
+  Status touch_off(Hub& hub, const std::string& name, const std::array<double, 3>& mark_B) override;
+};
+
+// Runs the routine, prints the identified parameters and writes the overlay to `overlay`
+// (its `base` relative to the overlay's folder). Nothing is written when the fit is refused.
+Result<CalibrationRun> calibrate_and_write(Hub& hub, NetCamera& camera, CalibrationOperator& op,
+                                           const std::filesystem::path& base_config,
+                                           const std::filesystem::path& overlay,
+                                           const CalibrationOptions& options);
+
+// Where the overlay goes by default: next to the base description, <stem>.calibrated.toml.
+std::filesystem::path default_overlay_path(const std::filesystem::path& base_config);
+
+// Test poses (not used by the fit): seeded tool poses over the workspace.
+std::vector<ToolPose> test_poses(const RobotModel& model, int count, std::uint64_t seed);
+
+// Moves the robot to each test pose as `hub.model()` computes it and measures, with the
+// truth, how far the virtual tool (the model's tool at the reported joints) is from the true
+// tool. Returns the distances (m).
+Result<std::vector<double>> measure_test_poses(Hub& hub, EmulatorSide& side,
+                                               const std::vector<ToolPose>& poses);
+
+// The true as-built values of the fit's parameters for the emulated robot built from
+// `description` (report only: the truth of the build, never given to the twin).
+std::array<double, calib::kParamCount> true_parameters(const RobotModel& description);
+
+}  // namespace scaratwin::cli

@@ -1,0 +1,48 @@
+// The processes and instruments of a twin session: the simulator (scaratwin-sim), the physical
+// robot (a real board on a serial port, or our firmware in the emulator, scaratwin-robot), and
+// the emulated robot's side channel (its buttons, the operator's hands, the truth) and webcam.
+// Used by `scaratwin demo` and `scaratwin calibrate`.
+#pragma once
+
+#include <cstdint>
+#include <filesystem>
+#include <memory>
+#include <optional>
+#include <string>
+
+#include "emulator_side.hpp"
+#include "scaratwin/core/result.hpp"
+#include "scaratwin/hub/process.hpp"
+#include "scaratwin/hub/tool_tracker.hpp"
+
+namespace scaratwin::cli {
+
+struct RigOptions {
+  std::string config_path;  // robot description for the simulator and the emulator
+  std::string serial;       // a real board; empty: the emulator
+  int http_port = 0;        // the simulator's browser UI (0: none)
+  double robot_speed = 1.0;
+  std::optional<std::uint64_t> as_built_seed;  // the emulated robot's build
+  std::string camera;                          // a real robot's webcam as host:port
+  double truth_hz = 200.0;                     // the emulated robot's truth recorder
+};
+
+struct Rig {
+  std::unique_ptr<ChildProcess> sim;
+  std::unique_ptr<ChildProcess> robot;  // null with a real board
+  std::uint16_t sim_port = 0;
+  std::string device;          // the serial device (or the emulator's pty)
+  std::string plant = "real";  // real, as-built or ideal
+  std::string ui_url;
+  std::optional<EmulatorSide> side;
+  std::unique_ptr<TruthRecorder> truth;  // as-built emulated robots only
+  std::unique_ptr<NetCamera> webcam;
+
+  void stop();
+};
+
+// Starts the rig; the children's logs go to `log_dir` (sim.log, robot.log). Prints what it
+// started on stdout.
+Result<Rig> start_rig(const RigOptions& options, const std::filesystem::path& log_dir);
+
+}  // namespace scaratwin::cli

@@ -1,0 +1,70 @@
+// The calibration statement: measures the robot the hub is connected to and fits its model
+// (calibration/calibration.hpp). The measurements a desktop robot's owner has:
+//  1. homing against the endstops (the joint zeros are measured from the switches);
+//  2. the overhead webcam sees the printed pattern on the table (the camera's pose and lens);
+//  3. the webcam sees the tool's markers at poses spread over the workspace, in both elbow
+//     configurations, at several heights and wrist angles, each joint reaching them from both
+//     sides;
+//  4. touch-offs: the operator jogs the tool onto known marks (the trays' corners) at two or
+//     more wrist angles (the operator, a person at a real robot, is scripted in emulation).
+// Then the fit; a refused fit writes nothing. The robot moves only through the hub.
+#pragma once
+
+#include <array>
+#include <cstdint>
+#include <functional>
+#include <string>
+
+#include "scaratwin/calibration/calibration.hpp"
+#include "scaratwin/core/result.hpp"
+#include "scaratwin/hub/hub.hpp"
+#include "scaratwin/hub/tool_tracker.hpp"
+
+namespace scaratwin {
+
+// The person at the robot.
+class CalibrationOperator {
+ public:
+  virtual ~CalibrationOperator() = default;
+  // Lays the printed pattern on the table (on) or takes it away (off).
+  virtual Status pattern(bool on) = 0;
+  // The tool is above `mark` (at most a few millimetres off): jog it onto the mark, the tool
+  // point at the mark's height, and return when it is there.
+  virtual Status touch_off(Hub& hub, const std::string& name,
+                           const std::array<double, 3>& mark_B) = 0;
+};
+
+struct CalibrationOptions {
+  int marker_poses = 36;
+  int width_px = 1280;  // the webcam's pictures for calibration
+  int height_px = 960;
+  double settle_s = 0.25;  // rest before a picture
+  std::uint64_t seed = 1;  // of the poses
+  calib::FitOptions fit;
+  std::function<void(const std::string&)> progress;  // one line per stage
+};
+
+struct CalibrationRun {
+  calib::Measurements measurements;
+  calib::Fit fit;
+  RobotModel calibrated;
+  double robot_s = 0.0;  // the routine's duration on the robot's clock
+  int pictures = 0;
+};
+
+bool is_calibrated(const RobotModel& model);
+
+// The marks of the touch-offs: two corners of each tray, at the height the tool point has
+// when the jaws' tips touch the table.
+std::vector<std::pair<std::string, std::array<double, 3>>> touch_marks(const RobotModel& model);
+
+// The marker poses (firmware joints): seeded, inside the joint limits with a margin, in
+// view of the camera, alternating the elbow, spread in height and wrist angle.
+std::vector<JointVector> marker_poses(const RobotModel& model, int count, std::uint64_t seed);
+
+// Runs the routine on the connected robot (homes it first). The hub's description must be a
+// base description, not a calibrated overlay.
+Result<CalibrationRun> calibrate(Hub& hub, NetCamera& camera, CalibrationOperator& op,
+                                 const CalibrationOptions& options = {});
+
+}  // namespace scaratwin

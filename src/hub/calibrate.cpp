@@ -1,0 +1,236 @@
+#include "scaratwin/hub/calibrate.hpp"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <numbers>
+
+#include <fmt/format.h>
+
+#include "scaratwin/core/units.hpp"
+#include "scaratwin/kinematics/kinematics.hpp"
+#include "scaratwin/trajectory/trajectory.hpp"
+#include "scaratwin/vision/webcam.hpp"
+
+namespace scaratwin {
+namespace {
+
+constexpr double kDeg = std::numbers::pi / 180.0;
+
+// splitmix64 (the poses must be the same on every machine)
+double uniform(std::uint64_t& s, double lo, double hi) {
+  std::uint64_t z = (s += 0x9E3779B97F4A7C15ULL);
+  z = (z ^ (z >> 30)) * 0xBF58476D1CE4E5B9ULL;
+  z = (z ^ (z >> 27)) * 0x94D049BB133111EBULL;
+  z ^= z >> 31;
+  return lo + (hi - lo) * static_cast<double>(z >> 11) * 0x1.0p-53;
+}
+
+void say(const CalibrationOptions& o, const std::string& line) {
+  if (o.progress) o.progress(line);
+}
+
+// The robot's firmware joints now (its counts through the base description) and the side of
+// the dead band each joint rests on.
+struct Reading {
+  JointVector q_fw{};
+  calib::Directions dir{};
+  std::uint32_t device_us = 0;
+};
+
+Result<Reading> read_robot(Hub& hub) {
+  auto ps = hub.fresh_physical(2.0);
+  if (!ps) return ps.error();
+  Reading r;
+  r.q_fw = ps->q;  // the base description: its joints are the firmware's
+  const MotionDirections d = hub.directions();
+  r.dir = {d[0], d[1], d[2], 0};
+  r.device_us = ps->raw.t_us;
+  return r;
+}
+
+Status move_to(Hub& hub, const JointVector& target) {
+  auto now = hub.fresh_physical(2.0);
+  if (!now) return now.error();
+  auto traj = plan_quintic(hub.model(), now->q, target);
+  if (!traj) return traj.error();
+  auto run = hub.run_trajectory(*traj);
+  if (!run) return run.error();
+  return hub.wait_idle(30.0);
+}
+
+Result<RgbImage> picture(NetCamera& camera, const CalibrationOptions& o, int& count) {
+  auto frame = camera.grab(o.width_px, o.height_px);
+  if (!frame) return Error{frame.error().code, "calibration: the webcam: " + frame.error().message};
+  ++count;
+  return std::move(frame->image);
+}
+
+// The pattern's tag corners in a picture, each with its place on the table.
+calib::PatternView see_pattern(const RobotModel& model, const RgbImage& image) {
+  calib::PatternView v;
+  v.width_px = image.width;
+  v.height_px = image.height;
+  (void)model;  // the tags' detection lands with the printed pattern
+  return v;
+}
+
+}  // namespace
+
+bool is_calibrated(const RobotModel& m) {
+  const JointCalibration& c = m.calibration;
+  return m.webcam.valid || c.z_offset_m != 0.0 || c.z_scale != 0.0 || c.j2_zero_rad != 0.0 ||
+         c.j3_zero_rad != 0.0 || c.wrist_offset_rad != 0.0 || c.wrist_gain != 0.0 ||
+         c.backlash != std::array<double, 3>{};
+}
+
+std::vector<std::pair<std::string, std::array<double, 3>>> touch_marks(const RobotModel& model) {
+  // crosses printed on the mat the robot stands on (registered to its base), clear of the
+  // trays; the tool point 15 mm above the table (a gauge block under the jaws)
+  const double z = model.scene.table_z_m + 0.015;
+  return {{"mark A", {0.10, 0.15, z}}, {"mark B", {0.18, 0.11, z}}, {"mark C", {0.22, 0.06, z}},
+          {"mark D", {0.23, 0.02, z}}, {"mark E", {0.14, 0.06, z}}, {"mark F", {0.17, 0.03, z}}};
+}
+
+std::vector<JointVector> marker_poses(const RobotModel& model, int count, std::uint64_t seed) {
+  std::vector<JointVector> out;
+  const WebcamModel cam = nominal_webcam(model.scene.camera);
+  const auto& lim = model.limits;
+  std::uint64_t s = seed * 0x2545F4914F6CDD1DULL + 1;
+  int tries = 0;
+  while (static_cast<int>(out.size()) < count && tries++ < 100000) {
+    const bool elbow_up = out.size() % 2 == 0;
+    JointVector q;
+    // high enough that the jaws clear the trays; the joints a margin inside their limits
+    q[0] = uniform(s, std::max(lim[0].min, 0.075), lim[0].max - 0.002);
+    q[1] = uniform(s, std::max(lim[1].min + 15 * kDeg, -95 * kDeg),
+                   std::min(lim[1].max - 15 * kDeg, 95 * kDeg));
+    q[2] = elbow_up ? uniform(s, 30 * kDeg, std::min(lim[2].max - 15 * kDeg, 140 * kDeg))
+                    : uniform(s, std::max(lim[2].min + 8 * kDeg, -140 * kDeg), -25 * kDeg);
+    q[3] = uniform(s, std::max(lim[3].min, 10 * kDeg), std::min(lim[3].max, 170 * kDeg));
+    // the markers well inside the picture
+    const auto a = calib::axis_marker_B(model, q);
+    double col = 0.0, row = 0.0;
+    if (!project(cam, a, 1280, 960, col, row)) continue;
+    if (col < 60 || col > 1220 || row < 60 || row > 900) continue;
+    // not over the robot's own base column
+    if (std::hypot(a[0], a[1]) < 0.09) continue;
+    out.push_back(q);
+  }
+  return out;
+}
+
+Result<CalibrationRun> calibrate(Hub& hub, NetCamera& camera, CalibrationOperator& op,
+                                 const CalibrationOptions& o) {
+  const RobotModel& base = hub.model();
+  if (is_calibrated(base)) {
+    return Error{2,
+                 "calibrate: the hub runs a calibrated description; calibrate with its base "
+                 "description (the overlay's `base`)"};
+  }
+  CalibrationRun run;
+  calib::Measurements& m = run.measurements;
+  const auto t0 = std::chrono::steady_clock::now();
+
+  say(o, "home against the endstops (the joint zeros are measured from the switches)");
+  if (Status s = hub.home(); !s) return s.error();
+  auto first = read_robot(hub);
+  if (!first) return first.error();
+  std::uint64_t device_s = 0;  // the robot's clock, unwrapped
+  std::uint32_t last_us = first->device_us;
+  auto tick = [&](std::uint32_t us) {
+    device_s += static_cast<std::uint32_t>(us - last_us);
+    last_us = us;
+  };
+
+  // 1. the printed pattern, seen with the arm to one side and then the other
+  say(o, "lay the printed pattern on the table; the webcam measures itself against it");
+  if (Status s = op.pattern(true); !s) return s.error();
+  for (double side : {1.0, -1.0}) {
+    const JointVector aside{base.limits[0].max - 0.002, side * 100.0 * kDeg, side * 40.0 * kDeg,
+                            90.0 * kDeg};
+    if (Status s = move_to(hub, aside); !s) return s.error();
+    if (Status s = hub.sleep(o.settle_s); !s) return s.error();
+    auto img = picture(camera, o, run.pictures);
+    if (!img) return img.error();
+    calib::PatternView v = see_pattern(base, *img);
+    say(o, fmt::format("  the pattern: {} tag corners seen", v.points.size()));
+    if (!v.points.empty()) m.pattern.push_back(std::move(v));
+  }
+  if (Status s = op.pattern(false); !s) return s.error();
+
+  // 2. the markers at poses over the workspace
+  const std::vector<JointVector> poses = marker_poses(base, o.marker_poses, o.seed);
+  say(o, fmt::format("the tool's markers at {} poses", poses.size()));
+  int unseen = 0;
+  for (std::size_t i = 0; i < poses.size(); ++i) {
+    if (Status s = move_to(hub, poses[i]); !s) return s.error();
+    if (Status s = hub.sleep(o.settle_s); !s) return s.error();
+    auto r = read_robot(hub);
+    if (!r) return r.error();
+    tick(r->device_us);
+    auto img = picture(camera, o, run.pictures);
+    if (!img) return img.error();
+    calib::MarkerView v;
+    v.q_fw = r->q_fw;
+    v.dir = r->dir;
+    v.width_px = img->width;
+    v.height_px = img->height;
+    double col = 0.0, row = 0.0;
+    if (detect_marker(*img, col, row)) v.axis_px = std::array<double, 2>{col, row};
+    if (detect_flag_marker(*img, col, row)) v.flag_px = std::array<double, 2>{col, row};
+    if (!v.axis_px) ++unseen;
+    m.markers.push_back(v);
+    if ((i + 1) % 6 == 0) say(o, fmt::format("  {} of {} poses", i + 1, poses.size()));
+  }
+  if (unseen > static_cast<int>(poses.size()) / 4) {
+    return Error{1, fmt::format("calibration: the tool marker was not found in {} of {} pictures "
+                                "(is the marker on the tool, and the webcam's view clear?)",
+                                unseen, poses.size())};
+  }
+
+  // 3. touch-offs, at three wrist angles
+  const auto marks = touch_marks(base);
+  say(o, fmt::format("touch-offs: the tool onto {} marks", marks.size()));
+  static constexpr double kWrist[] = {20.0, 90.0, 160.0};
+  for (std::size_t i = 0; i < marks.size(); ++i) {
+    const auto& [name, p] = marks[i];
+    auto now = hub.fresh_physical(2.0);
+    if (!now) return now.error();
+    ToolPose above{p[0], p[1], p[2] + 0.02, kWrist[i % 3] * kDeg};
+    // the first solution of the description's IK near the current joints
+    auto q_above = inverse(base, above, now->q);
+    if (!q_above) {
+      return Error{1, fmt::format("calibration: {} at ({:.0f}, {:.0f}) mm is out of reach: {}",
+                                  name, p[0] * 1e3, p[1] * 1e3, q_above.error().message)};
+    }
+    if (Status s = move_to(hub, *q_above); !s) return s.error();
+    JointVector q_on = *q_above;
+    q_on[0] -= 0.02;
+    if (Status s = move_to(hub, q_on); !s) return s.error();
+    if (Status s = op.touch_off(hub, name, p); !s) return s.error();
+    if (Status s = hub.sleep(o.settle_s); !s) return s.error();
+    auto r = read_robot(hub);
+    if (!r) return r.error();
+    tick(r->device_us);
+    m.touches.push_back({name, p, r->q_fw, r->dir});
+    // lift clear before the next
+    JointVector up = r->q_fw;
+    up[0] = std::min(base.limits[0].max - 0.002, up[0] + 0.03);
+    if (Status s = move_to(hub, up); !s) return s.error();
+  }
+  run.robot_s = static_cast<double>(device_s) / 1e6;
+
+  say(o, "fit");
+  const auto f0 = std::chrono::steady_clock::now();
+  auto fit = calib::fit(base, nominal_webcam(base.scene.camera), m, o.fit);
+  const double fit_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - f0).count();
+  if (!fit) return fit.error();
+  run.fit = std::move(*fit);
+  run.fit.fit_seconds = fit_s;
+  run.calibrated = calib::apply(base, run.fit);
+  (void)t0;
+  return run;
+}
+
+}  // namespace scaratwin
