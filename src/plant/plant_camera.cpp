@@ -47,13 +47,22 @@ sim::Image spoil(const sim::Image& ideal, const LensModel& lens, std::uint64_t f
       // where this pixel's ray lands on the ideal (pinhole) picture
       const double x = (u + 0.5 - cx) / norm, y = (v + 0.5 - cy) / norm;
       const double s = 1.0 + lens.k1 * (x * x + y * y);
-      const int su = static_cast<int>(std::floor(cx + x * s * norm));
-      const int sv = static_cast<int>(std::floor(cy + y * s * norm));
+      // bilinear between the four ideal pixels around the point (their centres at +0.5)
+      const double qu = cx + x * s * norm - 0.5, qv = cy + y * s * norm - 0.5;
+      const int su = static_cast<int>(std::floor(qu)), sv = static_cast<int>(std::floor(qv));
+      const double fu = qu - su, fv = qv - sv;
       std::uint8_t* o = &out.rgb[3 * (static_cast<std::size_t>(v) * out.width_px + u)];
-      const bool inside = su >= 0 && sv >= 0 && su < ideal.width_px && sv < ideal.height_px;
+      const bool inside = su >= 0 && sv >= 0 && su + 1 < ideal.width_px && sv + 1 < ideal.height_px;
       for (int c = 0; c < 3; ++c) {
-        const double src =
-            inside ? ideal.rgb[3 * (static_cast<std::size_t>(sv) * ideal.width_px + su) + c] : 0.0;
+        double src = 0.0;
+        if (inside) {
+          const auto at = [&](int a, int b) {
+            return static_cast<double>(
+                ideal.rgb[3 * (static_cast<std::size_t>(b) * ideal.width_px + a) + c]);
+          };
+          src = (1 - fv) * ((1 - fu) * at(su, sv) + fu * at(su + 1, sv)) +
+                fv * ((1 - fu) * at(su, sv + 1) + fu * at(su + 1, sv + 1));
+        }
         // noise: a sum of two uniforms, scaled to the wanted standard deviation
         state = mix(state);
         const double u1 = static_cast<double>(state >> 11) * 0x1.0p-53;
