@@ -470,7 +470,19 @@ Result<RobotModel> parse_robot_config(std::string_view toml_text, std::string_vi
     cam.integer("height_px", m.scene.camera.height_px, 16, 4096);
     cam.number("roll_deg", m.scene.camera.roll_rad, 1.0 / kDegPerRad);
     cam.reject_unknown("pos_m, look_at_m, fovy_deg, width_px, height_px, roll_deg");
-    scene.reject_unknown("table_z_m, cube_size_m, grasp_z_m, approach_height_m, trays, camera");
+    TableReader pat = scene.sub("pattern");
+    PatternModel& pt = m.scene.pattern;
+    pat.number("x_m", pt.x_m);
+    pat.number("y_m", pt.y_m);
+    pat.number("yaw_deg", pt.yaw_rad, 1.0 / kDegPerRad);
+    pat.number("tag_size_m", pt.tag_size_m);
+    pat.number("spacing_m", pt.spacing_m);
+    pat.integer("columns", pt.columns, 1, 64);
+    pat.integer("rows", pt.rows, 1, 64);
+    pat.number("thickness_m", pt.thickness_m);
+    pat.reject_unknown("x_m, y_m, yaw_deg, tag_size_m, spacing_m, columns, rows, thickness_m");
+    scene.reject_unknown(
+        "table_z_m, cube_size_m, grasp_z_m, approach_height_m, trays, camera, pattern");
   }
   read_physical(top, m.physical);
   top.reject_unknown("name, dh, limits, home, motors, servos, endstops, scene, drive, as_built");

@@ -194,6 +194,31 @@ Status validate(const RobotModel& m) {
   if (!(c.fovy_deg > 1.0 && c.fovy_deg < 170.0)) {
     return invalid(fmt::format("scene.camera.fovy_deg = {}: must be in (1, 170)", c.fovy_deg));
   }
+  const PatternModel& pt = s.pattern;
+  if (!std::isfinite(pt.x_m) || !std::isfinite(pt.y_m) || !(std::abs(pt.yaw_rad) <= 2 * kPi)) {
+    return invalid("scene.pattern: x_m and y_m must be finite, yaw_deg in [-360, 360]");
+  }
+  if (!(pt.tag_size_m >= 0.005 && pt.tag_size_m <= 0.5)) {
+    return invalid(fmt::format("scene.pattern.tag_size_m = {}: must be in [0.005, 0.5]",
+                               pt.tag_size_m));
+  }
+  if (!(pt.spacing_m >= pt.tag_size_m / 4 && pt.spacing_m <= 0.5)) {
+    return invalid(fmt::format(
+        "scene.pattern.spacing_m = {}: must be at least a quarter of tag_size_m ({}) so that "
+        "each tag keeps its white border, and at most 0.5",
+        pt.spacing_m, pt.tag_size_m / 4));
+  }
+  if (pt.columns < 1 || pt.rows < 1 || pt.columns * pt.rows > 587 || pt.columns > 64 ||
+      pt.rows > 64) {
+    return invalid(fmt::format(
+        "scene.pattern {} x {} tags: columns and rows must be 1..64 and their product at most "
+        "587 (the tag36h11 family's size)",
+        pt.columns, pt.rows));
+  }
+  if (!(pt.thickness_m >= 0.0 && pt.thickness_m <= 0.005)) {
+    return invalid(
+        fmt::format("scene.pattern.thickness_m = {}: must be in [0, 0.005]", pt.thickness_m));
+  }
   if (!(std::abs(c.roll_rad) <= kPi)) {
     return invalid(
         fmt::format("scene.camera.roll_deg = {}: must be in [-180, 180]", rad_to_deg(c.roll_rad)));

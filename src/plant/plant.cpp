@@ -71,9 +71,13 @@ Result<std::unique_ptr<Plant>> Plant::create(const RobotModel& description, cons
   sim::SimOptions so;
   so.mjcf.timestep_s = options.timestep_s;
   so.mjcf.cubes_per_color = options.cubes_per_color;
+  so.mjcf.pattern = true;
+  so.mjcf.offscreen_width_px = kWebcamScale * p->built_.scene.camera.width_px;
+  so.mjcf.offscreen_height_px = kWebcamScale * p->built_.scene.camera.height_px;
   auto sim = sim::Simulation::create(p->built_, so);
   if (!sim) return sim.error();
   p->sim_ = std::move(sim).value();
+  if (Status s = p->sim_->show_pattern(false); !s) return s.error();
 
   const PhysicalModel& phys = description.physical;
   for (int i = 0; i < kSteppers; ++i)

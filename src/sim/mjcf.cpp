@@ -9,6 +9,7 @@
 
 #include "scaratwin/core/units.hpp"
 #include "scaratwin/vision/vision.hpp"
+#include "scaratwin/vision/webcam.hpp"
 
 namespace scaratwin::sim {
 namespace {
@@ -108,8 +109,16 @@ Result<std::string> make_mjcf(const RobotModel& model, const MjcfOptions& o) {
       "    <map znear=\"0.02\" zfar=\"20\"/>\n"
       "    <headlight ambient=\"0.3 0.3 0.3\" diffuse=\"0.3 0.3 0.3\" specular=\"0 0 0\"/>\n"
       "  </visual>\n"
-      "  <asset><material name=\"matte\" specular=\"0.1\" shininess=\"0.1\"/></asset>\n",
+      "  <asset>\n    <material name=\"matte\" specular=\"0.1\" shininess=\"0.1\"/>\n",
       off_w, off_h);
+  if (o.pattern) {
+    x += fmt::format(
+        "    <texture name=\"pattern\" type=\"2d\" file=\"{}\"/>\n"
+        "    <material name=\"pattern\" texture=\"pattern\" texrepeat=\"1 1\" "
+        "texuniform=\"false\" specular=\"0\" shininess=\"0\" reflectance=\"0\"/>\n",
+        kPatternTextureFile);
+  }
+  x += "  </asset>\n";
   x += "  <default>\n"
        "    <geom contype=\"0\" conaffinity=\"0\" material=\"matte\" rgba=\"0.82 0.82 0.85 1\"/>\n"
        "    <default class=\"solid\"><geom contype=\"1\" conaffinity=\"1\" condim=\"3\" "
@@ -155,6 +164,16 @@ Result<std::string> make_mjcf(const RobotModel& model, const MjcfOptions& o) {
           vec(size[0], size[1], size[2]), vec(pos[0], pos[1], pos[2]), rgba);
     }
     x += "    </body>\n";
+  }
+  // the printed pattern: a sheet lying on the table, its surface thickness_m above it
+  if (o.pattern) {
+    const PatternModel& p = sc.pattern;
+    const auto size = pattern_sheet_size_m(p);
+    x += fmt::format(
+        "    <geom name=\"{}\" type=\"box\" size=\"{}\" pos=\"{}\" euler=\"0 0 {}\" "
+        "material=\"pattern\" rgba=\"1 1 1 1\"/>\n",
+        kPatternGeom, vec(0.5 * size[0], 0.5 * size[1], 0.5 * p.thickness_m),
+        vec(p.x_m, p.y_m, sc.table_z_m + 0.5 * p.thickness_m), num(p.yaw_rad));
   }
   // overhead camera: looks along -z of its frame, x to the right of the image, y up
   {

@@ -99,6 +99,19 @@ Result<CubeState> Simulation::spawn_cube(CubeColor color, double x_m, double y_m
   return this->cube(k).value();
 }
 
+Status Simulation::show_pattern(bool on) {
+  if (pattern_geom_ < 0) {
+    return sim_error(SimError::kBadArgument,
+                     "show_pattern: this model has no pattern (build it with MjcfOptions::pattern)");
+  }
+  // a static, visual-only geom: moving it in the model is enough (parked 10 m aside, out of
+  // every view, like the unused cubes)
+  double* pos = m_->geom_pos + 3 * pattern_geom_;
+  for (int i = 0; i < 3; ++i) pos[i] = pattern_pos_[i] + (on || i != 0 ? 0.0 : 10.0);
+  pattern_shown_ = on;
+  return forward();
+}
+
 void Simulation::reset_scene() {
   release();
   for (std::size_t k = 0; k < active_.size(); ++k) park(static_cast<int>(k));

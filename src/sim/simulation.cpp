@@ -10,6 +10,8 @@
 #include <mujoco/mujoco.h>
 
 #include "mj_guard.hpp"
+#include "scaratwin/sim/camera.hpp"
+#include "scaratwin/vision/webcam.hpp"
 
 namespace scaratwin::sim {
 namespace {
@@ -95,23 +97,39 @@ Status Simulation::init(const RobotModel& robot, const SimOptions& options) {
   mjcf_ = std::move(*xml);
   pool_per_color_ = options.mjcf.cubes_per_color;
 
+  // the printed pattern's texture, drawn from the description
+  std::vector<std::uint8_t> pattern_png;
+  if (options.mjcf.pattern) {
+    auto sheet = pattern_sheet(robot.scene.pattern);
+    if (!sheet) return sim_error(SimError::kBadArgument, sheet.error().message);
+    auto png = encode_png(Image{sheet->image.width, sheet->image.height, sheet->image.rgb});
+    if (!png) return png.error();
+    pattern_png = std::move(*png);
+  }
+
   // compile from memory through a virtual file system
   auto vfs = std::make_unique<mjVFS>();
   char err[1024] = {0};
   struct Load {
     mjVFS* vfs;
     const std::string* xml;
+    const std::vector<std::uint8_t>* texture;
     char* err;
     mjModel* m = nullptr;
+    bool add(const char* name, const void* data, std::size_t size) {
+      if (mj_makeEmptyFileVFS(vfs, name, static_cast<int>(size)) != 0) return false;
+      std::memcpy(vfs->filedata[mj_findFileVFS(vfs, name)], data, size);
+      return true;
+    }
     void operator()() {
       mj_defaultVFS(vfs);
-      if (mj_makeEmptyFileVFS(vfs, "scaratwin.xml", static_cast<int>(xml->size())) != 0) return;
-      const int i = mj_findFileVFS(vfs, "scaratwin.xml");
-      std::memcpy(vfs->filedata[i], xml->data(), xml->size());
-      m = mj_loadXML("scaratwin.xml", vfs, err, 1024);
+      if (add("scaratwin.xml", xml->data(), xml->size()) &&
+          (texture->empty() || add(kPatternTextureFile, texture->data(), texture->size()))) {
+        m = mj_loadXML("scaratwin.xml", vfs, err, 1024);
+      }
       mj_deleteVFS(vfs);
     }
-  } load{vfs.get(), &mjcf_, err};
+  } load{vfs.get(), &mjcf_, &pattern_png, err};
   if (Status st =
           detail::mj_guarded(static_cast<int>(SimError::kMujoco), "compiling the model", load);
       !st) {
@@ -167,6 +185,11 @@ Status Simulation::init(const RobotModel& robot, const SimOptions& options) {
   }
   active_.assign(n, 0);
   for (int k = 0; k < n; ++k) park(k);
+  if (options.mjcf.pattern) {
+    pattern_geom_ = id(mjOBJ_GEOM, kPatternGeom);
+    for (int i = 0; i < 3; ++i) pattern_pos_[i] = m_->geom_pos[3 * pattern_geom_ + i];
+    pattern_shown_ = true;
+  }
 
   target_ = robot_.home;
   gripper_closed_ = false;
@@ -202,6 +225,9 @@ Result<std::unique_ptr<Simulation>> Simulation::clone() const {
   s->active_ = active_;
   s->geom_contype_ = geom_contype_;
   s->geom_conaffinity_ = geom_conaffinity_;
+  s->pattern_geom_ = pattern_geom_;
+  s->pattern_pos_ = pattern_pos_;
+  s->pattern_shown_ = pattern_shown_;
   s->mode_ = mode_;
   s->target_ = target_;
   s->traj_ = traj_;

@@ -60,6 +60,27 @@ TEST(Config, WrongTypeIsNamed) {
       << m.error().message;
 }
 
+TEST(Config, PatternIsReadAndChecked) {
+  auto c = parse_robot_config(
+      "[scene.pattern]\nx_m = 0.2\nyaw_deg = 90\ntag_size_m = 0.03\ncolumns = 3\n", "x.toml");
+  ASSERT_TRUE(c.ok()) << c.error().message;
+  EXPECT_DOUBLE_EQ(c->scene.pattern.x_m, 0.2);
+  EXPECT_DOUBLE_EQ(c->scene.pattern.yaw_rad, deg_to_rad(90.0));
+  EXPECT_DOUBLE_EQ(c->scene.pattern.tag_size_m, 0.03);
+  EXPECT_EQ(c->scene.pattern.columns, 3);
+  EXPECT_EQ(c->scene.pattern.rows, paper_robot().scene.pattern.rows);  // the default
+  auto tight = parse_robot_config("[scene.pattern]\nspacing_m = 0.005\n", "x.toml");
+  ASSERT_FALSE(tight.ok());
+  EXPECT_NE(tight.error().message.find("scene.pattern.spacing_m = 0.005: must be at least a "
+                                       "quarter of tag_size_m (0.01)"),
+            std::string::npos)
+      << tight.error().message;
+  auto many = parse_robot_config("[scene.pattern]\ncolumns = 30\nrows = 30\n", "x.toml");
+  ASSERT_FALSE(many.ok());
+  EXPECT_NE(many.error().message.find("587"), std::string::npos) << many.error().message;
+  EXPECT_FALSE(parse_robot_config("[scene.pattern]\nsize = 3\n", "x.toml").ok());  // unknown key
+}
+
 TEST(Config, CameraRollIsReadInDegreesAndBounded) {
   auto c = parse_robot_config("[scene.camera]\nroll_deg = 2.5\n", "x.toml");
   ASSERT_TRUE(c.ok()) << c.error().message;

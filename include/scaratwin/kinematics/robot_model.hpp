@@ -101,7 +101,8 @@ struct JointCalibration {
 };
 
 // The physical overhead webcam as calibrated (pinhole + radial distortion k1, k2 on normalised
-// coordinates), when the description has one; the virtual scene camera stays `camera`.
+// coordinates, as vision/webcam.hpp's WebcamModel defines them), when the description has one;
+// the virtual scene camera stays `camera`.
 struct WebcamCalibration {
   bool valid = false;
   std::array<double, 3> pos_m{};
@@ -133,6 +134,22 @@ struct CameraModel {
   double roll_rad = 0.0;
 };
 
+// The printed calibration pattern: a board of AprilTags (family tag36h11) lying flat on the
+// table, registered to the base (dowels in the base plate). Tag ids run 0, 1, ... along the
+// board's x axis, then row by row towards its -y side; each tag's black square is tag_size_m
+// across, its white border one eighth of that. The operator puts it down to calibrate the camera
+// and takes it away after.
+struct PatternModel {
+  double x_m = 0.19;           // centre of the board in B
+  double y_m = 0.11;
+  double yaw_rad = 0.0;        // the board's x axis from B's x axis, about z
+  double tag_size_m = 0.04;    // edge of each tag's black square
+  double spacing_m = 0.015;    // gap between neighbouring black squares
+  int columns = 5;             // tags along the board's x axis
+  int rows = 4;                // and along its y axis
+  double thickness_m = 0.0002; // the printed sheet: its surface is this far above the table
+};
+
 // The work scene, in the robot base frame (z = 0 at the base; the table top below it).
 struct SceneModel {
   double table_z_m = -0.04;              // table top height
@@ -141,6 +158,7 @@ struct SceneModel {
   double approach_height_m = 0.04;       // clearance above pick/place points
   std::array<Tray, kNumColors> trays{};  // indexed by CubeColor
   CameraModel camera;
+  PatternModel pattern;
 };
 
 struct RobotModel {

@@ -47,6 +47,10 @@ struct PlantOptions {
   JointVector start{};
 };
 
+// The webcam's full resolution relative to the description's camera size: the plant renders
+// pictures up to this many times its width and height.
+inline constexpr int kWebcamScale = 2;
+
 // The as-built description: the nominal one with the drawn link lengths, tool offset and
 // camera mount applied.
 RobotModel as_built_robot(const RobotModel& description, const AsBuilt& as_built);
@@ -75,6 +79,10 @@ class Plant {
   void clear_cubes();
   // The operator hangs a mass on the tool (kg, 0..2; 0 takes it off).
   Status set_payload(double mass_kg);
+  // The operator lays the printed calibration pattern on the table (registered to the base,
+  // where the description's scene.pattern says) or takes it away. Off at power-up.
+  Status set_pattern(bool on) { return sim_->show_pattern(on); }
+  bool pattern_on() const { return sim_->pattern_shown(); }
 
   // --- the truth (measuring instruments only) -------------------------------------------------
   double time_s() const { return time_s_; }

@@ -25,7 +25,8 @@ class PlantCamera {
   static Result<std::unique_ptr<PlantCamera>> create(const Plant& plant,
                                                      const LensModel& lens = {});
   ~PlantCamera();
-  // A picture of the physical table now, width x height (at most the scene camera's size).
+  // A picture of the physical table now, width x height (at most kWebcamScale times the scene
+  // camera's size).
   Result<sim::Image> grab(const Plant& plant, int width_px, int height_px);
   std::uint64_t frames() const { return frames_; }
 

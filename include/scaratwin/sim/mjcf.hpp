@@ -40,12 +40,19 @@ inline constexpr double kFlagOffsetM = 0.025;
 // Where its centre is for joints q (in B, m): it turns with q4 (and dh.j4's theta offset).
 std::array<double, 3> flag_marker_position(const RobotModel& model, const JointVector& q);
 
+// The printed calibration pattern (scene.pattern): a thin box on the table textured with the
+// sheet of vision/webcam.hpp's pattern_sheet(), which the loader supplies as this file.
+inline constexpr const char* kPatternGeom = "pattern";
+inline constexpr const char* kPatternTextureFile = "scaratwin_pattern.png";
+
 struct MjcfOptions {
   int cubes_per_color = 4;      // size of the cube pool of each colour, >= 1
   double timestep_s = 0.004;    // physics step (4 ms: stable for the servos, welds, 2 cm cubes)
   int offscreen_width_px = 0;   // largest image the camera can render; 0 = camera width
   int offscreen_height_px = 0;  // 0 = camera height
   double cube_mass_kg = 0.008;  // a 2 cm PLA cube
+  // Include the pattern (its texture file must then be supplied: Simulation does).
+  bool pattern = false;
 };
 
 // Geometry of the gripper derived from the cube size (m). Each finger's joint value is its

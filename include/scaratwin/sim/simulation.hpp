@@ -117,6 +117,11 @@ class Simulation {
   std::vector<CubeState> cubes() const;
   Result<CubeState> cube(int id) const;
   int cubes_per_color() const { return pool_per_color_; }
+  // The printed calibration pattern (a model built with MjcfOptions::pattern): lays it on the
+  // table where the description's scene.pattern says, or takes it away (parked out of sight).
+  // Error: the model has no pattern.
+  Status show_pattern(bool on);
+  bool pattern_shown() const { return pattern_shown_; }
 
   // --- motion ------------------------------------------------------------------------------
   Mode mode() const { return mode_; }
@@ -242,6 +247,9 @@ class Simulation {
   int pool_per_color_ = 0;
   std::vector<char> active_;  // per cube id
   std::vector<int> geom_contype_, geom_conaffinity_;
+  int pattern_geom_ = -1;                // -1: no pattern in the model
+  std::array<double, 3> pattern_pos_{};  // where it lies when shown
+  bool pattern_shown_ = false;
 
   Mode mode_ = Mode::kMirror;
   JointVector target_{};  // mirror pose or simulate hold point
