@@ -121,13 +121,14 @@ Result<std::unique_ptr<Emulator>> Emulator::create(const EmulatorOptions& option
     std::istringstream ls(s.command);
     std::string verb;
     ls >> verb;
-    static const char* kVerbs[] = {"press", "release", "cut",   "lose",  "corrupt", "query",
-                                   "rate",  "mark",    "place", "clear", "payload"};
+    static const char* kVerbs[] = {"press", "release", "cut",   "lose",    "corrupt", "query",
+                                   "rate",  "mark",    "place", "clear",   "payload", "pattern"};
     if (std::find_if(std::begin(kVerbs), std::end(kVerbs),
                      [&](const char* v) { return verb == v; }) == std::end(kVerbs)) {
       return Error{
           1, "scenario command '" + s.command +
-                 "' is unknown: use press, release, cut, lose, corrupt, place, clear or payload"};
+                 "' is unknown: use press, release, cut, lose, corrupt, place, clear, payload or "
+                 "pattern"};
     }
   }
   return e;
@@ -254,8 +255,9 @@ std::string Emulator::camera_command(const std::string& line) {
   in >> verb >> w >> h;
   if (verb != "grab") return "ERR unknown command '" + verb + "': use grab <width> <height>";
   const CameraModel& cam = plant_->built().scene.camera;
-  if (w < 16 || h < 16 || w > cam.width_px || h > cam.height_px) {
-    return fmt::format("ERR grab needs a size from 16x16 to {}x{}", cam.width_px, cam.height_px);
+  const int max_w = plant::kWebcamScale * cam.width_px, max_h = plant::kWebcamScale * cam.height_px;
+  if (w < 16 || h < 16 || w > max_w || h > max_h) {
+    return fmt::format("ERR grab needs a size from 16x16 to {}x{}", max_w, max_h);
   }
   if (!camera_) {
     // the lens of this robot's webcam: its own seeded spread around a cheap lens
@@ -297,6 +299,16 @@ std::string Emulator::command(const std::string& line, int client) {
     if (!(in >> kg)) return "ERR payload needs a mass in kg (0..2)";
     if (Status st = plant_->set_payload(kg); !st) return "ERR " + st.error().message;
     return "OK " + line;
+  }
+  if (verb == "pattern") {
+    if (!plant_) return "ERR the ideal robot has no physical world: start with --plant as-built";
+    std::string state;
+    in >> state;
+    if (state != "on" && state != "off") {
+      return "ERR pattern needs on (lay the printed pattern on the table) or off";
+    }
+    if (Status st = plant_->set_pattern(state == "on"); !st) return "ERR " + st.error().message;
+    return "OK pattern " + state;
   }
   if (verb == "place" || verb == "clear") {
     if (!plant_) {
@@ -368,7 +380,7 @@ std::string Emulator::command(const std::string& line, int client) {
   }
   return "ERR unknown command '" + verb +
          "': use query, rate, mark, press, release, cut, lose, corrupt, cubes, place, clear, "
-         "payload";
+         "payload, pattern";
 }
 
 namespace {

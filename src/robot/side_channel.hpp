@@ -20,7 +20,9 @@
 //   lose <z|j2|j3> <steps> | corrupt <n> [rx|tx] |
 //   cubes (the physical cubes: "CUBES n id:colour:x_m:y_m:z_m ...") |
 //   place <red|green|blue> <x_m> <y_m> [yaw_deg] (an operator puts a cube on the table) |
-//   clear (the operator takes every cube away)
+//   clear (the operator takes every cube away) |
+//   pattern <on|off> (the operator lays the printed calibration pattern on the table, or
+//   takes it away)
 // Buttons: z+ z- j2+ j2- j3+ j3-. The same commands, each prefixed with an emulated time in
 // ms, make up a scenario file (--scenario).
 //

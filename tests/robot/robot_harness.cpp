@@ -11,6 +11,7 @@
 #include <termios.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <cstdlib>
 #include <cstring>
 #include <sstream>
@@ -86,9 +87,12 @@ Robot::Robot(const std::vector<std::string>& args) {
   posix_spawn_file_actions_init(&fa);
   posix_spawn_file_actions_adddup2(&fa, out[1], 1);
   posix_spawn_file_actions_addclose(&fa, out[0]);
-  // the exact robot: these tests check the firmware's counts against the pins step for step
-  std::vector<std::string> argv_s{SCARATWIN_ROBOT_EXE,  "--firmware", SCARATWIN_FIRMWARE_ELF,
-                                  "--exit-with-parent", "--plant",    "ideal"};
+  // the exact robot unless asked for the one as built: these tests check the firmware's
+  // counts against the pins step for step
+  const bool as_built = std::find(args.begin(), args.end(), "as-built") != args.end();
+  std::vector<std::string> argv_s{SCARATWIN_ROBOT_EXE, "--firmware", SCARATWIN_FIRMWARE_ELF,
+                                  "--exit-with-parent"};
+  if (!as_built) argv_s.insert(argv_s.end(), {"--plant", "ideal"});
   argv_s.insert(argv_s.end(), args.begin(), args.end());
   std::vector<char*> argv;
   for (auto& s : argv_s) argv.push_back(s.data());
@@ -103,14 +107,17 @@ Robot::Robot(const std::vector<std::string>& args) {
   if (pid_ < 0) return;
   std::string buf, pty_path;
   int port = -1;
-  while (pty_path.empty() || port < 0) {
+  while (pty_path.empty() || port < 0 || (as_built && camera_port_ < 0)) {
     auto l = read_line(out_fd_, buf, 30.0);
     if (!l) {
-      error_ = "the emulator printed no pty / side channel";
+      error_ = "the emulator printed no pty / side channel / camera";
       return;
     }
     if (l->rfind("pty: ", 0) == 0) pty_path = l->substr(5);
     if (l->rfind("side channel: ", 0) == 0) port = std::atoi(l->substr(l->rfind(':') + 1).c_str());
+    if (l->rfind("camera: ", 0) == 0) {
+      camera_port_ = std::atoi(l->substr(l->rfind(':') + 1).c_str());
+    }
   }
   // open the port like a serial device: raw, no echo, input flushed
   pty_fd_ = ::open(pty_path.c_str(), O_RDWR | O_NOCTTY | O_NONBLOCK);
@@ -153,6 +160,7 @@ Robot::Robot(const std::vector<std::string>& args) {
 }
 
 Robot::~Robot() {
+  if (camera_fd_ >= 0) ::close(camera_fd_);
   if (pty_fd_ >= 0) ::close(pty_fd_);
   if (side_fd_ >= 0) ::close(side_fd_);
   if (pid_ > 0) {
@@ -257,6 +265,47 @@ Truth Robot::truth() {
     if (eq != std::string::npos) t.fields[tok.substr(0, eq)] = tok.substr(eq + 1);
   }
   return t;
+}
+
+std::string Robot::grab(int width, int height, std::vector<std::uint8_t>& rgb, double timeout_s) {
+  rgb.clear();
+  if (camera_port_ < 0) return "no camera";
+  if (camera_fd_ < 0) {
+    camera_fd_ = ::socket(AF_INET, SOCK_STREAM, 0);
+    sockaddr_in addr{};
+    addr.sin_family = AF_INET;
+    addr.sin_port = htons(static_cast<std::uint16_t>(camera_port_));
+    addr.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
+    if (::connect(camera_fd_, reinterpret_cast<sockaddr*>(&addr), sizeof addr) != 0) {
+      return "cannot connect to the camera";
+    }
+    fcntl(camera_fd_, F_SETFL, O_NONBLOCK);
+  }
+  const std::string cmd = "grab " + std::to_string(width) + " " + std::to_string(height) + "\n";
+  if (::send(camera_fd_, cmd.data(), cmd.size(), MSG_NOSIGNAL) !=
+      static_cast<ssize_t>(cmd.size())) {
+    return "cannot send to the camera";
+  }
+  auto header = read_line(camera_fd_, camera_buf_, timeout_s);
+  if (!header) return "no answer from the camera";
+  if (header->rfind("FRAME ", 0) != 0) return *header;
+  std::istringstream in(header->substr(6));
+  std::uint64_t n = 0, sim_us = 0, bytes = 0;
+  int w = 0, h = 0;
+  in >> n >> sim_us >> w >> h >> bytes;
+  const double end = now_s() + timeout_s;
+  while (camera_buf_.size() < bytes + 1 && now_s() < end) {
+    pollfd p{camera_fd_, POLLIN, 0};
+    if (poll(&p, 1, 100) <= 0) continue;
+    char tmp[65536];
+    const ssize_t got = ::read(camera_fd_, tmp, sizeof tmp);
+    if (got <= 0) break;
+    camera_buf_.append(tmp, static_cast<std::size_t>(got));
+  }
+  if (camera_buf_.size() < bytes + 1) return "the frame was cut short";
+  rgb.assign(camera_buf_.begin(), camera_buf_.begin() + static_cast<std::ptrdiff_t>(bytes));
+  camera_buf_.erase(0, bytes + 1);
+  return *header;
 }
 
 }  // namespace scaratwin::test

@@ -67,6 +67,10 @@ class Robot {
   std::string side(const std::string& command, double timeout_s = 10.0);
   Truth truth();
 
+  // Camera (with --plant as-built): one picture of width x height, 8-bit RGB with row 0 at the
+  // top, into rgb; returns the FRAME header, or the camera's error (rgb then empty).
+  std::string grab(int width, int height, std::vector<std::uint8_t>& rgb, double timeout_s = 20.0);
+
   // Reports and lines seen so far that callers did not consume.
   std::vector<std::string> reports;
 
@@ -78,6 +82,9 @@ class Robot {
   int out_fd_ = -1;  // emulator stdout
   int pty_fd_ = -1;
   int side_fd_ = -1;
+  int camera_port_ = -1;
+  int camera_fd_ = -1;
+  std::string camera_buf_;
   std::string pty_buf_;
   std::string side_buf_;
   bool ok_ = false;

@@ -18,6 +18,7 @@
 #include "scaratwin/config/robot_config.hpp"
 #include "scaratwin/kinematics/motor.hpp"
 #include "scaratwin/trajectory/trajectory.hpp"
+#include "scaratwin/vision/webcam.hpp"
 
 namespace scaratwin::test {
 namespace {
@@ -452,6 +453,33 @@ TEST(RobotPaced, ReportsCarryConsecutiveSequenceNumbersAtTheConfiguredRate) {
   }
   const double span_s = static_cast<std::uint32_t>(reps.back().t_us() - reps.front().t_us()) / 1e6;
   EXPECT_NEAR(static_cast<double>(reps.size() - 1) / span_s, 200.0, 1.0);
+}
+
+// The printed calibration pattern: the operator lays it on the physical table through the
+// side channel, and the webcam sees its tags (at its full 1280x960) until it is taken away.
+TEST(RobotAsBuilt, ThePatternLiesOnTheTableOnRequest) {
+  Robot r({"--speed", "0", "--plant", "as-built", "--as-built-seed", "11"});
+  ASSERT_TRUE(r.ok()) << r.error();
+  std::vector<std::uint8_t> rgb;
+  ASSERT_EQ(r.grab(1280, 960, rgb).rfind("FRAME ", 0), 0u);
+  ASSERT_EQ(rgb.size(), 1280u * 960u * 3u);
+  EXPECT_TRUE(detect_tags(RgbImage{1280, 960, rgb}).empty());
+  EXPECT_EQ(r.side("pattern on"), "OK pattern on");
+  ASSERT_EQ(r.grab(1280, 960, rgb).rfind("FRAME ", 0), 0u);
+  const auto tags = detect_tags(RgbImage{1280, 960, rgb});
+  // the arm at home lies over the pattern's row nearest the x axis and hides some of it
+  EXPECT_GE(tags.size(), 12u);
+  for (const auto& t : tags) EXPECT_LT(t.id, 20);
+  EXPECT_EQ(r.side("pattern maybe"),
+            "ERR pattern needs on (lay the printed pattern on the table) or off");
+  EXPECT_EQ(r.side("pattern off"), "OK pattern off");
+  ASSERT_EQ(r.grab(1280, 960, rgb).rfind("FRAME ", 0), 0u);
+  EXPECT_TRUE(detect_tags(RgbImage{1280, 960, rgb}).empty());
+  EXPECT_EQ(r.grab(1282, 960, rgb), "ERR grab needs a size from 16x16 to 1280x960");
+}
+
+TEST_F(RobotTest, TheIdealRobotHasNoPatternToLay) {
+  EXPECT_EQ(robot.side("pattern on").rfind("ERR the ideal robot has no physical world", 0), 0u);
 }
 
 }  // namespace
