@@ -70,7 +70,7 @@ WebcamModel camera_for(const WebcamModel& guess, const Theta& t) {
 
 struct Problem {
   const RobotModel& base;
-  const WebcamModel& guess;
+  const CameraPrior& prior;
   const Measurements& m;
   const FitOptions& o;
   int rows = 0;
@@ -78,21 +78,27 @@ struct Problem {
   // residuals, each divided by its expected noise
   void residuals(const Theta& t, Eigen::VectorXd& r) const {
     const RobotModel model = model_for(base, t);
-    const WebcamModel cam = camera_for(guess, t);
+    const WebcamModel cam = camera_for(prior.camera, t);
     int k = 0;
-    auto pixel = [&](const std::array<double, 3>& p, int w, int h, const std::array<double, 2>& seen) {
+    // the centroid of a marker disc's picture (perspective and lens move it off the centre)
+    auto pixel = [&](const std::array<double, 3>& p, double radius, int w, int h,
+                     const std::array<double, 2>& seen) {
       double col = 0.0, row = 0.0;
-      if (!project(cam, p, w, h, col, row)) col = row = 1e6;
+      if (!project_disc(cam, p, radius, w, h, col, row)) col = row = 1e6;
       r[k++] = (col - seen[0]) / o.pixel_sigma;
       r[k++] = (row - seen[1]) / o.pixel_sigma;
     };
-    for (const PatternView& v : m.pattern) {
-      for (const PatternPoint& pp : v.points) pixel(pp.p_B, v.width_px, v.height_px, pp.px);
-    }
+    // what the pattern said about the camera
+    for (int i = 0; i < kWebcamParams; ++i) r[k++] = t[kRobotParams + i] / prior_sigma(i);
     for (const MarkerView& v : m.markers) {
       const JointVector q = true_joints(model, v.q_fw, v.dir);
-      if (v.axis_px) pixel(axis_marker_B(model, q), v.width_px, v.height_px, *v.axis_px);
-      if (v.flag_px) pixel(flag_marker_B(model, q), v.width_px, v.height_px, *v.flag_px);
+      if (v.axis_px) {
+        pixel(axis_marker_B(model, q), sim::kMarkerRadiusM, v.width_px, v.height_px, *v.axis_px);
+      }
+      if (v.flag_px) {
+        pixel(flag_marker_B(model, q), sim::kFlagMarkerRadiusM, v.width_px, v.height_px,
+              *v.flag_px);
+      }
     }
     for (const TouchOff& t_off : m.touches) {
       const JointVector q = true_joints(model, t_off.q_fw, t_off.dir);
@@ -101,6 +107,11 @@ struct Problem {
       r[k++] = (p.y_m - t_off.mark_B[1]) / o.touch_sigma_m;
       r[k++] = (p.z_m - t_off.mark_B[2]) / o.touch_sigma_m;
     }
+  }
+
+  double prior_sigma(int i) const {
+    const double se = prior.std_error[i];
+    return se > 0.0 ? se : kParams[kRobotParams + i].scale_si;
   }
 
   Theta to_theta(const Eigen::VectorXd& x) const {
@@ -166,14 +177,6 @@ std::array<double, 3> flag_marker_B(const RobotModel& model, const JointVector& 
 
 std::optional<std::string> missing_measurement(const RobotModel& base, const Measurements& m) {
   (void)base;
-  int corners = 0;
-  for (const PatternView& v : m.pattern) corners += static_cast<int>(v.points.size());
-  if (corners < 24) {
-    return fmt::format(
-        "the printed pattern: {} tag corners seen, at least 24 are needed (put the pattern on "
-        "the table in view of the camera)",
-        corners);
-  }
   int axis = 0, flags = 0, elbow_pos = 0, elbow_neg = 0;
   double z_min = 1e9, z_max = -1e9, w_min = 1e9, w_max = -1e9;
   for (const MarkerView& v : m.markers) {
@@ -236,17 +239,15 @@ std::optional<std::string> missing_measurement(const RobotModel& base, const Mea
   return std::nullopt;
 }
 
-Result<Fit> fit(const RobotModel& base, const WebcamModel& camera_guess, const Measurements& m,
+Result<Fit> fit(const RobotModel& base, const CameraPrior& camera, const Measurements& m,
                 const FitOptions& o) {
   if (auto missing = missing_measurement(base, m)) {
     return Error{1, "calibration needs more measurements: " + *missing};
   }
-  Problem prob{base, camera_guess, m, o};
+  Problem prob{base, camera, m, o};
   Fit out;
-  for (const PatternView& v : m.pattern) {
-    out.pattern_points += static_cast<int>(v.points.size());
-    prob.rows += 2 * static_cast<int>(v.points.size());
-  }
+  out.pattern_points = camera.corners;
+  prob.rows += kWebcamParams;
   for (const MarkerView& v : m.markers) {
     const int n = (v.axis_px ? 1 : 0) + (v.flag_px ? 1 : 0);
     out.marker_points += n;
@@ -287,13 +288,7 @@ Result<Fit> fit(const RobotModel& base, const WebcamModel& camera_guess, const M
   // the residuals in their units
   double pix2 = 0.0, mark2 = 0.0, touch2 = 0.0;
   int pix_n = 0, mark_n = 0;
-  int k = 0;
-  for (const PatternView& v : m.pattern) {
-    for (std::size_t i = 0; i < v.points.size(); ++i, k += 2) {
-      pix2 += std::pow(r[k] * o.pixel_sigma, 2) + std::pow(r[k + 1] * o.pixel_sigma, 2);
-      ++pix_n;
-    }
-  }
+  int k = kWebcamParams;
   for (const MarkerView& v : m.markers) {
     const int n = (v.axis_px ? 1 : 0) + (v.flag_px ? 1 : 0);
     for (int i = 0; i < n; ++i, k += 2) {
@@ -338,7 +333,7 @@ Result<Fit> fit(const RobotModel& base, const WebcamModel& camera_guess, const M
                                   kParams[i].needs)};
     }
   }
-  out.camera = camera_for(camera_guess, t);
+  out.camera = camera_for(camera.camera, t);
   return out;
 }
 

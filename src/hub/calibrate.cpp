@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <map>
 #include <numbers>
 
 #include <fmt/format.h>
@@ -64,15 +65,6 @@ Result<RgbImage> picture(NetCamera& camera, const CalibrationOptions& o, int& co
   if (!frame) return Error{frame.error().code, "calibration: the webcam: " + frame.error().message};
   ++count;
   return std::move(frame->image);
-}
-
-// The pattern's tag corners in a picture, each with its place on the table.
-calib::PatternView see_pattern(const RobotModel& model, const RgbImage& image) {
-  calib::PatternView v;
-  v.width_px = image.width;
-  v.height_px = image.height;
-  (void)model;  // the tags' detection lands with the printed pattern
-  return v;
 }
 
 }  // namespace
@@ -143,9 +135,11 @@ Result<CalibrationRun> calibrate(Hub& hub, NetCamera& camera, CalibrationOperato
     last_us = us;
   };
 
-  // 1. the printed pattern, seen with the arm to one side and then the other
+  // 1. the printed pattern, seen with the arm to one side and then the other (each tag from
+  // the picture where the arm does not hide it)
   say(o, "lay the printed pattern on the table; the webcam measures itself against it");
   if (Status s = op.pattern(true); !s) return s.error();
+  std::map<int, TagCorners> tags;
   for (double side : {1.0, -1.0}) {
     const JointVector aside{base.limits[0].max - 0.002, side * 100.0 * kDeg, side * 40.0 * kDeg,
                             90.0 * kDeg};
@@ -153,11 +147,21 @@ Result<CalibrationRun> calibrate(Hub& hub, NetCamera& camera, CalibrationOperato
     if (Status s = hub.sleep(o.settle_s); !s) return s.error();
     auto img = picture(camera, o, run.pictures);
     if (!img) return img.error();
-    calib::PatternView v = see_pattern(base, *img);
-    say(o, fmt::format("  the pattern: {} tag corners seen", v.points.size()));
-    if (!v.points.empty()) m.pattern.push_back(std::move(v));
+    const std::vector<TagCorners> seen = detect_tags(*img);
+    for (const TagCorners& t : seen) tags.emplace(t.id, t);
+    say(o, fmt::format("  {} tags seen", seen.size()));
   }
   if (Status s = op.pattern(false); !s) return s.error();
+  std::vector<TagCorners> all;
+  for (const auto& [id, t] : tags) all.push_back(t);
+  auto cam = calibrate_webcam(nominal_webcam(base.scene.camera), all, o.width_px, o.height_px, base);
+  if (!cam) {
+    return Error{cam.error().code, "calibration: the webcam on the pattern: " + cam.error().message};
+  }
+  say(o, fmt::format("  the webcam: {} tags, {} corners, residual {:.2f} px{}", cam->tags,
+                     cam->corners, cam->rms_px, cam->note.empty() ? "" : "; " + cam->note));
+  run.camera = *cam;
+  calib::CameraPrior prior{cam->camera, cam->std_error, cam->corners};
 
   // 2. the markers at poses over the workspace
   const std::vector<JointVector> poses = marker_poses(base, o.marker_poses, o.seed);
@@ -197,13 +201,17 @@ Result<CalibrationRun> calibrate(Hub& hub, NetCamera& camera, CalibrationOperato
     const auto& [name, p] = marks[i];
     auto now = hub.fresh_physical(2.0);
     if (!now) return now.error();
-    ToolPose above{p[0], p[1], p[2] + 0.02, kWrist[i % 3] * kDeg};
-    // the first solution of the description's IK near the current joints
-    auto q_above = inverse(base, above, now->q);
+    // the description's IK near the current joints for the position; then the wrist joint
+    // at this mark's angle (it hardly moves the tool point: the operator makes up for it)
+    auto q_above = Result<JointVector>(Error{1, "no wrist angle"});
+    for (double yaw = -180.0; yaw < 180.0 && !q_above; yaw += 30.0) {
+      q_above = inverse(base, ToolPose{p[0], p[1], p[2] + 0.02, yaw * kDeg}, now->q);
+    }
     if (!q_above) {
       return Error{1, fmt::format("calibration: {} at ({:.0f}, {:.0f}) mm is out of reach: {}",
                                   name, p[0] * 1e3, p[1] * 1e3, q_above.error().message)};
     }
+    (*q_above)[3] = kWrist[i % 3] * kDeg;
     if (Status s = move_to(hub, *q_above); !s) return s.error();
     JointVector q_on = *q_above;
     q_on[0] -= 0.02;
@@ -223,7 +231,7 @@ Result<CalibrationRun> calibrate(Hub& hub, NetCamera& camera, CalibrationOperato
 
   say(o, "fit");
   const auto f0 = std::chrono::steady_clock::now();
-  auto fit = calib::fit(base, nominal_webcam(base.scene.camera), m, o.fit);
+  auto fit = calib::fit(base, prior, m, o.fit);
   const double fit_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - f0).count();
   if (!fit) return fit.error();
   run.fit = std::move(*fit);

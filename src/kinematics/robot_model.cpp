@@ -71,7 +71,9 @@ Status validate(const RobotModel& m) {
           "dh.{}.alpha_deg = {}: a SCARA has parallel joint axes, so every alpha must be 0",
           kJoint[i], rad_to_deg(r.alpha_rad)));
     }
-    if (r.a_m < 0.0) {
+    // the tool's offset off the wrist axis (dh.j4.a) may point either way: a robot as built
+    // (or calibrated) with its jaws' centre a little behind the axis is a valid robot
+    if (r.a_m < 0.0 && i != 3) {
       return invalid(fmt::format("dh.{}.a_m = {}: link lengths must be >= 0", kJoint[i], r.a_m));
     }
     // messages use the description file's keys and units (m for j1, degrees otherwise).
