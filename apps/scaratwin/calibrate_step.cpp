@@ -25,16 +25,6 @@ namespace {
 using namespace std::chrono_literals;
 constexpr double kDeg = std::numbers::pi / 180.0;
 
-Status move_to(Hub& hub, const JointVector& target) {
-  auto now = hub.fresh_physical(2.0);
-  if (!now) return now.error();
-  auto traj = plan_quintic(hub.model(), now->q, target);
-  if (!traj) return traj.error();
-  auto run = hub.run_trajectory(*traj);
-  if (!run) return run.error();
-  return hub.wait_idle(30.0);
-}
-
 std::string utc_now() {
   const std::time_t t = std::time(nullptr);
   char buf[32];
@@ -70,7 +60,8 @@ Status EmulatedOperator::touch_off(Hub& hub, const std::string& name,
     const Eigen::Vector3d dq = jac.block<3, 3>(0, 0).colPivHouseholderQr().solve(e);
     JointVector target = now->q;
     for (int j = 0; j < 3; ++j) target[j] += dq[j];
-    if (Status s = move_to(hub, target); !s) return s;
+    // each nudge ends slowly from the same side, so the belts rest on one flank
+    if (Status s = approach(hub, target, {1, 1, 1}); !s) return s;
   }
   return Error{1, fmt::format("touch-off {}: the tool did not come within 0.3 mm of the mark "
                               "(closest {:.2f} mm)",
@@ -192,7 +183,7 @@ Result<std::vector<double>> measure_test_poses(Hub& hub, EmulatorSide& side,
     if (!now) return now.error();
     auto q = inverse(hub.model(), p, now->q);
     if (!q) return q.error();
-    if (Status s = move_to(hub, *q); !s) return s.error();
+    if (Status s = approach(hub, *q, {1, 1, 1}); !s) return s.error();
     if (Status s = hub.sleep(0.3); !s) return s.error();
     auto ps = hub.fresh_physical(2.0);
     if (!ps) return ps.error();

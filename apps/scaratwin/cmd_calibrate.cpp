@@ -96,7 +96,29 @@ int run_calibrate(const CommonOptions& common, const CalibrateArgs& a) {
     fmt::print("==> {}\n", line);
     std::fflush(stdout);
   };
+  // with the emulated robot: each measurement beside the truth (a measuring instrument for
+  // the record, never given to the fit)
+  std::FILE* log = nullptr;
+  if (rig->side) {
+    log = std::fopen((fs::path(a.out) / "calibration-truth.csv").c_str(), "w");
+    if (log) std::fputs("kind,q_fw0,q_fw1,q_fw2,q_fw3,dir1,dir2,true0,true1,true2,true3,axis_col,axis_row,flag_col,flag_row,tool_x,tool_y,tool_z\n", log);
+    co.on_measurement = [&](const calib::MarkerView* v, const calib::TouchOff* t) {
+      auto tr = rig->side->query();
+      if (!log || !tr) return;
+      const JointVector& q = v ? v->q_fw : t->q_fw;
+      const calib::Directions& d = v ? v->dir : t->dir;
+      std::fprintf(log, "%s,%.9g,%.9g,%.9g,%.9g,%d,%d,%.9g,%.9g,%.9g,%.9g,%.4f,%.4f,%.4f,%.4f,%.9g,%.9g,%.9g\n",
+                   v ? "marker" : "touch", q[0], q[1], q[2], q[3], d[1], d[2], tr->q[0], tr->q[1],
+                   tr->q[2], tr->q[3], v && v->axis_px ? (*v->axis_px)[0] : -1.0,
+                   v && v->axis_px ? (*v->axis_px)[1] : -1.0,
+                   v && v->flag_px ? (*v->flag_px)[0] : -1.0,
+                   v && v->flag_px ? (*v->flag_px)[1] : -1.0, tr->tool[0], tr->tool[1],
+                   tr->tool[2]);
+      std::fflush(log);
+    };
+  }
   auto run = calibrate_and_write(**hub, *rig->webcam, *op, base, overlay, co);
+  if (log) std::fclose(log);
   hub->reset();
   rig->stop();
   if (!run) {

@@ -60,6 +60,14 @@ Status move_to(Hub& hub, const JointVector& target) {
   return hub.wait_idle(30.0);
 }
 
+// each joint's side for pose i (seeded, so every joint reaches poses from both sides)
+MotionDirections sides(std::uint64_t seed, std::size_t i) {
+  std::uint64_t s = seed * 0x9E3779B97F4A7C15ULL + 77 * i + 1;
+  MotionDirections d{};
+  for (int j = 0; j < 3; ++j) d[j] = uniform(s, 0.0, 1.0) < 0.5 ? -1 : 1;
+  return d;
+}
+
 Result<RgbImage> picture(NetCamera& camera, const CalibrationOptions& o, int& count) {
   auto frame = camera.grab(o.width_px, o.height_px);
   if (!frame) return Error{frame.error().code, "calibration: the webcam: " + frame.error().message};
@@ -68,6 +76,19 @@ Result<RgbImage> picture(NetCamera& camera, const CalibrationOptions& o, int& co
 }
 
 }  // namespace
+
+Status approach(Hub& hub, const JointVector& target, const MotionDirections& dir) {
+  JointVector before = target;
+  before[0] -= dir[0] * 0.001;
+  before[1] -= dir[1] * 1.5 * kDeg;
+  before[2] -= dir[2] * 1.5 * kDeg;
+  if (Status s = move_to(hub, before); !s) return s;
+  auto slow = plan_quintic(hub.model(), before, target, {20, 0.8});
+  if (!slow) return slow.error();
+  auto run = hub.run_trajectory(*slow);
+  if (!run) return run.error();
+  return hub.wait_idle(30.0);
+}
 
 bool is_calibrated(const RobotModel& m) {
   const JointCalibration& c = m.calibration;
@@ -168,7 +189,8 @@ Result<CalibrationRun> calibrate(Hub& hub, NetCamera& camera, CalibrationOperato
   say(o, fmt::format("the tool's markers at {} poses", poses.size()));
   int unseen = 0;
   for (std::size_t i = 0; i < poses.size(); ++i) {
-    if (Status s = move_to(hub, poses[i]); !s) return s.error();
+    const MotionDirections side = sides(o.seed, i);
+    if (Status s = approach(hub, poses[i], side); !s) return s.error();
     if (Status s = hub.sleep(o.settle_s); !s) return s.error();
     auto r = read_robot(hub);
     if (!r) return r.error();
@@ -177,7 +199,7 @@ Result<CalibrationRun> calibrate(Hub& hub, NetCamera& camera, CalibrationOperato
     if (!img) return img.error();
     calib::MarkerView v;
     v.q_fw = r->q_fw;
-    v.dir = r->dir;
+    v.dir = {side[0], side[1], side[2], 0};
     v.width_px = img->width;
     v.height_px = img->height;
     double col = 0.0, row = 0.0;
@@ -185,6 +207,7 @@ Result<CalibrationRun> calibrate(Hub& hub, NetCamera& camera, CalibrationOperato
     if (detect_flag_marker(*img, col, row)) v.flag_px = std::array<double, 2>{col, row};
     if (!v.axis_px) ++unseen;
     m.markers.push_back(v);
+    if (o.on_measurement) o.on_measurement(&m.markers.back(), nullptr);
     if ((i + 1) % 6 == 0) say(o, fmt::format("  {} of {} poses", i + 1, poses.size()));
   }
   if (unseen > static_cast<int>(poses.size()) / 4) {
@@ -222,6 +245,7 @@ Result<CalibrationRun> calibrate(Hub& hub, NetCamera& camera, CalibrationOperato
     if (!r) return r.error();
     tick(r->device_us);
     m.touches.push_back({name, p, r->q_fw, r->dir});
+    if (o.on_measurement) o.on_measurement(nullptr, &m.touches.back());
     // lift clear before the next
     JointVector up = r->q_fw;
     up[0] = std::min(base.limits[0].max - 0.002, up[0] + 0.03);

@@ -65,14 +65,14 @@ inline const ParamInfo& param_info(int i) { return param_info(static_cast<Param>
 
 using Directions = std::array<int, kNumJoints>;  // last motion of each joint: +1, -1 (0 unknown)
 
-// The webcam saw the pattern: each detected tag corner with its known place on the table.
-struct PatternPoint {
-  std::array<double, 3> p_B{};
-  std::array<double, 2> px{};
-};
-struct PatternView {
-  int width_px = 0, height_px = 0;
-  std::vector<PatternPoint> points;
+// The webcam as the printed pattern measured it (vision: calibrate_webcam): its pose and lens
+// and their standard errors. The fit starts from it and keeps it as prior knowledge (a
+// parameter with no standard error, held by the pattern's fit, keeps a loose prior of one
+// build tolerance: the markers at several heights may still determine it).
+struct CameraPrior {
+  WebcamModel camera;
+  std::array<double, kWebcamParams> std_error{};
+  int corners = 0;  // pattern corners behind it
 };
 
 // The robot at rest at one pose, seen by the webcam: the firmware's joint values (its counts
@@ -94,7 +94,6 @@ struct TouchOff {
 };
 
 struct Measurements {
-  std::vector<PatternView> pattern;
   std::vector<MarkerView> markers;
   std::vector<TouchOff> touches;
 };
@@ -111,8 +110,8 @@ struct FitOptions {
 struct Fit {
   std::array<double, kParamCount> value{};      // SI (camera: vision's adjusted() units)
   std::array<double, kParamCount> std_error{};  // SI
-  WebcamModel camera;                           // the camera guess, adjusted
-  double pixel_rms = 0.0;                       // px over pattern corners and markers
+  WebcamModel camera;                           // the pattern's camera, adjusted
+  double pixel_rms = 0.0;                       // px over the markers
   double marker_rms_px = 0.0;
   double touch_rms_m = 0.0;
   double worst_marker_px = 0.0;
@@ -122,14 +121,14 @@ struct Fit {
 };
 
 // What each measurement family holds, and the first missing one (nullopt when complete):
-// the pattern seen, marker views in both elbow configurations, at several wrist angles and
+// marker views in both elbow configurations, at several wrist angles and
 // heights, each stepper joint approached from both sides, touch-offs at two wrist angles.
 std::optional<std::string> missing_measurement(const RobotModel& base, const Measurements& m);
 
 // The fit. Errors name the problem: too few or degenerate measurements (which one is
 // missing), a parameter the measurements do not determine, a residual above its threshold
 // (likely a slipped belt or a lost step during the routine).
-Result<Fit> fit(const RobotModel& base, const WebcamModel& camera_guess, const Measurements& m,
+Result<Fit> fit(const RobotModel& base, const CameraPrior& camera, const Measurements& m,
                 const FitOptions& options = {});
 
 // The base description with the fit applied: link lengths, jaw offset, joint map, webcam.

@@ -19,6 +19,7 @@
 #include "scaratwin/core/result.hpp"
 #include "scaratwin/hub/hub.hpp"
 #include "scaratwin/hub/tool_tracker.hpp"
+#include "scaratwin/vision/webcam.hpp"
 
 namespace scaratwin {
 
@@ -42,17 +43,28 @@ struct CalibrationOptions {
   std::uint64_t seed = 1;  // of the poses
   calib::FitOptions fit;
   std::function<void(const std::string&)> progress;  // one line per stage
+  // Called after each marker view and touch-off is taken (e.g. to log it beside a measuring
+  // instrument); the routine never waits on it.
+  std::function<void(const calib::MarkerView*, const calib::TouchOff*)> on_measurement;
 };
 
 struct CalibrationRun {
   calib::Measurements measurements;
   calib::Fit fit;
   RobotModel calibrated;
+  WebcamFit camera;  // the webcam on the printed pattern (before the joint fit)
   double robot_s = 0.0;  // the routine's duration on the robot's clock
   int pictures = 0;
 };
 
 bool is_calibrated(const RobotModel& model);
+
+// Unidirectional positioning: a quick move to `target` less `dir` x 1.5 deg on J2 and J3 (and
+// 1 mm on Z), then a slow last 1.5 deg towards it. A belt drive comes to rest on one flank of
+// its dead band only when the last motion was slow: after a fast move the arm's own momentum
+// and the other link's reaction can leave it on either. `dir` (+1 / -1 per stepper joint) is
+// then the side each joint rests on.
+Status approach(Hub& hub, const JointVector& target, const MotionDirections& dir);
 
 // The marks of the touch-offs: two corners of each tray, at the height the tool point has
 // when the jaws' tips touch the table.
