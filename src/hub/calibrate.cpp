@@ -5,6 +5,7 @@
 #include <cmath>
 #include <map>
 #include <numbers>
+#include <utility>
 
 #include <fmt/format.h>
 
@@ -64,7 +65,11 @@ Status move_to(Hub& hub, const JointVector& target) {
 MotionDirections sides(std::uint64_t seed, std::size_t i) {
   std::uint64_t s = seed * 0x9E3779B97F4A7C15ULL + 77 * i + 1;
   MotionDirections d{};
-  for (int j = 0; j < 3; ++j) d[j] = uniform(s, 0.0, 1.0) < 0.5 ? -1 : 1;
+  d[0] = uniform(s, 0.0, 1.0) < 0.5 ? -1 : 1;
+  // J2 and J3 from the same side: J3's last motion moves the upper arm across its own dead
+  // band (seen in the truth: J2 rested on the flank J3's direction chose), so only the same
+  // side for both leaves each joint where its own direction says
+  d[1] = d[2] = uniform(s, 0.0, 1.0) < 0.5 ? -1 : 1;
   return d;
 }
 
@@ -83,11 +88,20 @@ Status approach(Hub& hub, const JointVector& target, const MotionDirections& dir
   before[1] -= dir[1] * 1.5 * kDeg;
   before[2] -= dir[2] * 1.5 * kDeg;
   if (Status s = move_to(hub, before); !s) return s;
-  auto slow = plan_quintic(hub.model(), before, target, {20, 0.8});
-  if (!slow) return slow.error();
-  auto run = hub.run_trajectory(*slow);
-  if (!run) return run.error();
-  return hub.wait_idle(30.0);
+  // slow, Z and J2 first, then J3 alone: the elbow link moving with the upper arm comes to
+  // rest on whichever flank the upper arm's motion leaves it (seen in the truth: J3's side
+  // followed J2's direction when both moved together)
+  JointVector mid = target;
+  mid[2] = before[2];
+  for (const auto& [from, to] : {std::pair{before, mid}, std::pair{mid, target}}) {
+    const double t = std::max(0.6, 2.5 * quintic_min_duration(hub.model(), from, to));
+    auto slow = plan_quintic(hub.model(), from, to, {20, t});
+    if (!slow) return slow.error();
+    auto run = hub.run_trajectory(*slow);
+    if (!run) return run.error();
+    if (Status s = hub.wait_idle(30.0); !s) return s;
+  }
+  return Ok{};
 }
 
 bool is_calibrated(const RobotModel& m) {

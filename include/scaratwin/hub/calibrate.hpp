@@ -60,7 +60,7 @@ struct CalibrationRun {
 bool is_calibrated(const RobotModel& model);
 
 // Unidirectional positioning: a quick move to `target` less `dir` x 1.5 deg on J2 and J3 (and
-// 1 mm on Z), then a slow last 1.5 deg towards it. A belt drive comes to rest on one flank of
+// 1 mm on Z), then a slow last 1.5 deg towards it (Z and J2, then J3 alone). A belt drive comes to rest on one flank of
 // its dead band only when the last motion was slow: after a fast move the arm's own momentum
 // and the other link's reaction can leave it on either. `dir` (+1 / -1 per stepper joint) is
 // then the side each joint rests on.
