@@ -97,7 +97,7 @@ py::object fk(const py::object& joints, const py::object& robot) {
   {
     py::gil_scoped_release nogil;
     for (py::ssize_t i = 0; i < in.n; ++i) {
-      const ToolPose p = forward(r->model, row(in.data + 4 * i));
+      const ToolPose p = forward(r->model, row(in.ptr() + 4 * i));
       o[4 * i] = p.x_m;
       o[4 * i + 1] = p.y_m;
       o[4 * i + 2] = p.z_m;
@@ -118,7 +118,7 @@ py::tuple ik(const py::object& poses, const py::object& seed, const py::object& 
     seeds = rows_of(seed, "ik", "seed");
     require_finite(seeds, "ik", "seed");
     if (seeds.single) {
-      fixed_seed = row(seeds.data);
+      fixed_seed = row(seeds.ptr());
     } else if (seeds.n == in.n && !in.single) {
       one_seed = false;
     } else {
@@ -134,8 +134,8 @@ py::tuple ik(const py::object& poses, const py::object& seed, const py::object& 
   {
     py::gil_scoped_release nogil;
     for (py::ssize_t i = 0; i < in.n; ++i) {
-      const double* p = in.data + 4 * i;
-      const JointVector s = one_seed ? fixed_seed : row(seeds.data + 4 * i);
+      const double* p = in.ptr() + 4 * i;
+      const JointVector s = one_seed ? fixed_seed : row(seeds.ptr() + 4 * i);
       auto q = inverse(r->model, {p[0], p[1], p[2], p[3]}, s);
       double* qo = o + 4 * i;
       if (q) {
@@ -164,9 +164,9 @@ py::array ik_all(const py::object& pose, const py::object& seed, const py::objec
     const Rows sr = rows_of(seed, "ik_all", "seed");
     if (!sr.single) throw py::value_error("ik_all: seed must have shape (4,)");
     require_finite(sr, "ik_all", "seed");
-    s = row(sr.data);
+    s = row(sr.ptr());
   }
-  auto sol = inverse_all(r->model, {in.data[0], in.data[1], in.data[2], in.data[3]}, s);
+  auto sol = inverse_all(r->model, {in.ptr()[0], in.ptr()[1], in.ptr()[2], in.ptr()[3]}, s);
   if (!sol) {
     raise(ErrorKind::kUnreachable, Error{sol.error().code, "unreachable: " + sol.error().message});
   }
@@ -186,7 +186,7 @@ py::object jacobian(const py::object& joints, const py::object& robot) {
   {
     py::gil_scoped_release nogil;
     for (py::ssize_t i = 0; i < in.n; ++i) {
-      const Eigen::Matrix4d J = jacobian(r->model, row(in.data + 4 * i));
+      const Eigen::Matrix4d J = jacobian(r->model, row(in.ptr() + 4 * i));
       for (int a = 0; a < 4; ++a) {
         for (int b = 0; b < 4; ++b) o[16 * i + 4 * a + b] = J(a, b);
       }
@@ -201,7 +201,7 @@ py::object outside_limits(const py::object& joints, const py::object& robot) {
   py::array_t<std::int32_t> out(in.n);
   std::int32_t* o = out.mutable_data();
   for (py::ssize_t i = 0; i < in.n; ++i) {
-    o[i] = first_joint_outside_limits(r->model, row(in.data + 4 * i));
+    o[i] = first_joint_outside_limits(r->model, row(in.ptr() + 4 * i));
   }
   if (in.single) return py::int_(o[0]);
   return out;
@@ -215,7 +215,7 @@ py::tuple joints_to_motors_py(const py::object& joints, const py::object& robot)
   double* s = steps.mutable_data();
   double* w = wrist.mutable_data();
   for (py::ssize_t i = 0; i < in.n; ++i) {
-    const MotorPosition m = joints_to_motors(r->model, row(in.data + 4 * i));
+    const MotorPosition m = joints_to_motors(r->model, row(in.ptr() + 4 * i));
     for (int k = 0; k < 3; ++k) s[3 * i + k] = m.steps[k];
     w[i] = m.wrist_deg;
   }
@@ -231,7 +231,7 @@ py::array joints_to_steps_py(const py::object& joints, const py::object& robot) 
       in.single ? py::array_t<std::int32_t>(3) : py::array_t<std::int32_t>({in.n, py::ssize_t{3}});
   std::int32_t* o = out.mutable_data();
   for (py::ssize_t i = 0; i < in.n; ++i) {
-    const auto s = joints_to_steps(r->model, row(in.data + 4 * i));
+    const auto s = joints_to_steps(r->model, row(in.ptr() + 4 * i));
     for (int k = 0; k < 3; ++k) o[3 * i + k] = s[k];
   }
   return out;
@@ -252,7 +252,7 @@ py::array motors_to_joints_py(const py::object& steps, const py::object& wrist_d
   py::array_t<double> out = new_rows(in.n, in.single);
   double* o = out.mutable_data();
   for (py::ssize_t i = 0; i < in.n; ++i) {
-    const double* s = in.data + 3 * i;
+    const double* s = in.ptr() + 3 * i;
     const JointVector q =
         motors_to_joints(r->model, {s[0], s[1], s[2]}, w.data()[w.size() == 1 ? 0 : i]);
     for (int k = 0; k < 4; ++k) o[4 * i + k] = q[k];

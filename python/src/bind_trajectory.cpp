@@ -41,7 +41,7 @@ JointVector one_row(const py::object& obj, const char* call, const char* what) {
   const Rows r = rows_of(obj, call, what);
   if (!r.single) throw py::value_error(fmt::format("{}: {} must have shape (4,)", call, what));
   require_finite(r, call, what);
-  return {r.data[0], r.data[1], r.data[2], r.data[3]};
+  return {r.ptr()[0], r.ptr()[1], r.ptr()[2], r.ptr()[3]};
 }
 
 ToolPose one_pose(const py::object& obj, const char* call, const char* what) {
@@ -86,9 +86,9 @@ TrajectoryPtr from_arrays(const py::object& t, const py::object& q, const py::ob
     JointSample s;
     s.t_s = tv[i];
     for (int j = 0; j < 4; ++j) {
-      s.q[j] = qr.data[4 * i + j];
-      s.qd[j] = qdr.data ? qdr.data[4 * i + j] : 0.0;
-      s.qdd[j] = qddr.data ? qddr.data[4 * i + j] : 0.0;
+      s.q[j] = qr.ptr()[4 * i + j];
+      s.qd[j] = qdr.ptr() ? qdr.ptr()[4 * i + j] : 0.0;
+      s.qdd[j] = qddr.ptr() ? qddr.ptr()[4 * i + j] : 0.0;
     }
     tr->traj.samples.push_back(s);
   }
@@ -226,7 +226,7 @@ void bind_trajectory(py::module_& m) {
         }
         std::vector<JointVector> pts;
         for (py::ssize_t i = 0; i < pr.n; ++i) {
-          const double* p = pr.data + 4 * i;
+          const double* p = pr.ptr() + 4 * i;
           pts.push_back({p[0], p[1], p[2], p[3]});
         }
         ViaOptions o;

@@ -249,8 +249,8 @@ void bind_twin(py::module_& m) {
             if (!r.single) throw py::value_error("movej: joints must have shape (4,)");
             require_finite(r, "movej", "joints");
             return statement(
-                t, fmt::format("movej {} {} {} {}", num(r.data[0]), num(rad_to_deg(r.data[1])),
-                               num(rad_to_deg(r.data[2])), num(rad_to_deg(r.data[3]))));
+                t, fmt::format("movej {} {} {} {}", num(r.ptr()[0]), num(rad_to_deg(r.ptr()[1])),
+                               num(rad_to_deg(r.ptr()[2])), num(rad_to_deg(r.ptr()[3]))));
           },
           py::arg("joints"), "Moves the joints to (d1_m, q2_rad, q3_rad, q4_rad).")
       .def(

@@ -5,6 +5,7 @@
 #include <pybind11/numpy.h>
 #include <pybind11/pybind11.h>
 
+#include <array>
 #include <memory>
 #include <string>
 
@@ -64,10 +65,15 @@ void set_default_robot(RobotPtr robot);
 // Rows of 4 doubles from an array-like of shape (4,) or (N, 4) with a real dtype (float or
 // integer). Raises TypeError (dtype) or ValueError (shape) naming `call` and `what`.
 struct Rows {
-  py::array_t<double, py::array::c_style> array;
-  const double* data = nullptr;
+  py::array_t<double, py::array::c_style> array;  // unused when the row is held inline
+  std::array<double, 4> inline_row{};             // a list or tuple of 4 numbers
+  bool is_inline = false;
   py::ssize_t n = 0;
   bool single = false;  // the input was one (4,) row
+  const double* ptr() const {
+    if (is_inline) return inline_row.data();
+    return n > 0 ? array.data() : nullptr;  // a default array_t is an empty array, not null
+  }
 };
 Rows rows_of(const py::handle& obj, const char* call, const char* what, int width = 4);
 

@@ -76,7 +76,48 @@ RobotPtr robot_or_default(const py::object& robot) {
   return py::module_::import("scaratwin").attr("default_robot")().cast<RobotPtr>();
 }
 
+// One row given as a list or tuple of `width` Python floats or ints, read without numpy (the
+// common single call, fk([d1, q2, q3, q4])); false for anything else.
+bool inline_row(const py::handle& obj, int width, Rows& r) {
+  PyObject* o = obj.ptr();
+  if (!PyList_CheckExact(o) && !PyTuple_CheckExact(o)) return false;
+  if (PySequence_Fast_GET_SIZE(o) != width) return false;
+  PyObject** items = PySequence_Fast_ITEMS(o);
+  for (int j = 0; j < width; ++j) {
+    if (PyFloat_CheckExact(items[j])) {
+      r.inline_row[j] = PyFloat_AS_DOUBLE(items[j]);
+    } else if (PyLong_CheckExact(items[j])) {
+      r.inline_row[j] = PyLong_AsDouble(items[j]);
+      if (r.inline_row[j] == -1.0 && PyErr_Occurred()) throw py::error_already_set();
+    } else {
+      return false;
+    }
+  }
+  r.is_inline = true;
+  r.single = true;
+  r.n = 1;
+  return true;
+}
+
 Rows rows_of(const py::handle& obj, const char* call, const char* what, int width) {
+  Rows r;
+  if (width <= 4 && inline_row(obj, width, r)) return r;
+  using F64 = py::array_t<double, py::array::c_style>;
+  if (F64::check_(obj)) {
+    // already float64 and C-contiguous: used as it is
+    auto a = py::reinterpret_borrow<F64>(obj);
+    if (a.ndim() == 1 && a.shape(0) == width) {
+      r.single = true;
+      r.n = 1;
+      r.array = std::move(a);
+      return r;
+    }
+    if (a.ndim() == 2 && a.shape(1) == width) {
+      r.n = a.shape(0);
+      r.array = std::move(a);
+      return r;
+    }
+  }
   py::array a = py::array::ensure(obj);
   if (!a) {
     throw py::type_error(fmt::format("{}: {} must be an array of numbers of shape ({},) or (N, {})",
@@ -88,7 +129,6 @@ Rows rows_of(const py::handle& obj, const char* call, const char* what, int widt
         fmt::format("{}: {} has dtype {}; expected real numbers (float64, or an integer type)",
                     call, what, py::str(a.dtype()).cast<std::string>()));
   }
-  Rows r;
   if (a.ndim() == 1 && a.shape(0) == width) {
     r.single = true;
     r.n = 1;
@@ -98,15 +138,14 @@ Rows rows_of(const py::handle& obj, const char* call, const char* what, int widt
     throw py::value_error(fmt::format("{}: {} must have shape ({},) or (N, {}), got shape {}", call,
                                       what, width, width, shape_of(a)));
   }
-  r.array = py::array_t<double, py::array::c_style>::ensure(a);
-  r.data = r.array.data();
+  r.array = F64::ensure(a);
   return r;
 }
 
 void require_finite(const Rows& rows, const char* call, const char* what, int width) {
   for (py::ssize_t i = 0; i < rows.n; ++i) {
     for (int j = 0; j < width; ++j) {
-      if (!std::isfinite(rows.data[i * width + j])) {
+      if (!std::isfinite(rows.ptr()[i * width + j])) {
         throw py::value_error(
             fmt::format("{}: {}{} has a value that is not finite (NaN or infinite) in column {}",
                         call, what, rows.single ? "" : fmt::format("[{}]", i), j));

@@ -212,6 +212,14 @@ def test_ik_refuses_nan_targets_naming_the_row():
 def test_integer_and_list_input_is_accepted():
     assert np.array_equal(st.fk([0, 0, 0, 0]), st.fk(np.zeros(4)))
     assert np.array_equal(st.fk(np.zeros((2, 4), dtype=np.int64)), st.fk(np.zeros((2, 4))))
+    q = [0.1, 0.2, -0.3, 1]
+    assert np.array_equal(st.fk(q), st.fk(np.array(q, dtype=float)))
+    assert np.array_equal(st.fk(tuple(q)), st.fk(np.array(q, dtype=float)))
+    assert np.array_equal(st.fk(np.array(q)[::-1][::-1]), st.fk(q))  # a strided view
+    with pytest.raises(ValueError, match=r"got shape \(3,\)"):
+        st.fk([0.1, 0.2, 0.3])
+    with pytest.raises(TypeError, match="dtype bool"):
+        st.fk([True, False, True, False])
 
 
 def test_bad_description_raises_the_cli_message(tmp_path):
