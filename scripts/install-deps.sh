@@ -15,6 +15,7 @@ packages=(
   clang libclang-rt-14-dev
   chromium
   pybind11-dev python3-dev python3-numpy python3-pytest python3-pandas python3-matplotlib
+  jupyter-nbconvert python3-ipykernel
 )
 
 missing=()
