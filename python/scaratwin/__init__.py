@@ -56,8 +56,8 @@ from . import _core
 __all__ = [
     "ConfigError", "DatabaseError", "Error", "IkError", "LinkError", "PlanError", "Robot",
     "StatementError", "StateWatcher", "Trajectory", "Twin", "TwinDb", "UnreachableError",
-    "bin_dir", "connect", "default_robot", "detect_cubes", "default_robot_path", "fk", "ik", "ik_all",
-    "jacobian", "joints_to_motors", "joints_to_steps", "load_robot", "motors_to_joints",
+    "bin_dir", "connect", "default_robot", "default_robot_path", "detect_cubes", "fk", "ik",
+    "ik_all", "jacobian", "joints_to_motors", "joints_to_steps", "load_robot", "motors_to_joints",
     "outside_limits", "paper_robot", "parse_robot", "plan_line", "plan_pick_place",
     "plan_quintic", "plan_trapezoid", "plan_via_points", "quintic", "set_default_robot",
 ]
@@ -111,7 +111,8 @@ def set_default_robot(robot: Robot) -> None:
     """Makes ``robot`` the one every call uses when given none."""
     global _default
     if not isinstance(robot, Robot):
-        raise TypeError(f"set_default_robot: expected a scaratwin.Robot, got {type(robot).__name__}")
+        raise TypeError(
+            f"set_default_robot: expected a scaratwin.Robot, got {type(robot).__name__}")
     with _default_lock:
         _default = robot
         _core._set_default_robot(robot)

@@ -191,7 +191,8 @@ def test_outside_limits_names_the_joint(robot):
     (np.zeros(3), ValueError, "fk: joints must have shape (4,) or (N, 4), got shape (3,)"),
     (np.zeros((2, 5)), ValueError, "fk: joints must have shape (4,) or (N, 4), got shape (2, 5)"),
     (np.zeros((2, 4, 1)), ValueError, "got shape (2, 4, 1)"),
-    (np.zeros(4, dtype=complex), TypeError, "fk: joints has dtype complex128; expected real numbers"),
+    (np.zeros(4, dtype=complex), TypeError,
+     "fk: joints has dtype complex128; expected real numbers"),
     (np.array(["a", "b", "c", "d"]), TypeError, "fk: joints has dtype <U1"),
 ])
 def test_fk_refuses_bad_arrays(bad, exc, message):
@@ -204,7 +205,8 @@ def test_ik_refuses_nan_targets_naming_the_row():
     poses = np.array([[0.2, 0.05, -0.02, 0.0], [np.nan, 0.0, 0.0, 0.0]])
     with pytest.raises(ValueError) as e:
         st.ik(poses)
-    assert str(e.value) == "ik: poses[1] has a value that is not finite (NaN or infinite) in column 0"
+    assert str(e.value) == ("ik: poses[1] has a value that is not finite (NaN or infinite) "
+                            "in column 0")
     with pytest.raises(ValueError, match=r"ik: seed must have shape \(4,\) or the shape of poses"):
         st.ik(poses[:1], seed=np.zeros((3, 4)))
 
