@@ -9,7 +9,6 @@ while the simulator mirrors it, and check that the cube ended in its tray.
 Exit status 0 when the cube lies in the tray of its colour.
 """
 import argparse
-import math
 import sys
 
 import numpy as np

@@ -10,7 +10,6 @@ import pytest
 
 import scaratwin as st
 
-from rig import rig  # noqa: F401  (the fixture)
 
 EXAMPLES = Path(__file__).resolve().parents[2] / "examples" / "python"
 

