@@ -88,11 +88,22 @@ def test_spawn_objects_and_shoot(twin):
         twin.spawn("purple", 0.2, 0.0)
 
 
+def virtual_grip_becomes(twin, closed, timeout_s=10.0):
+    """Waits until the virtual gripper (which follows the physical one through the mirror)
+    reports `closed`."""
+    end = time.monotonic() + timeout_s
+    while time.monotonic() < end:
+        if twin.virtual_state()["grip_closed"] is closed:
+            return True
+        time.sleep(0.05)
+    return False
+
+
 def test_grip_and_release_reach_the_virtual_gripper(twin):
     twin.grip()
-    assert twin.virtual_state()["grip_closed"] is True
+    assert virtual_grip_becomes(twin, True)
     twin.release()
-    assert twin.virtual_state()["grip_closed"] is False
+    assert virtual_grip_becomes(twin, False)
 
 
 def test_state_stream_runs_while_a_move_holds_no_gil(twin):
