@@ -33,13 +33,16 @@ def cli(rig, *args):
                           timeout=120)
 
 
-def test_connect_to_a_simulator_that_is_not_running_raises_link_error(rig):
+def test_connect_to_a_simulator_or_robot_that_is_not_running_raises_link_error(rig):
     with socket.socket() as s:  # a port nobody listens on
         s.bind(("127.0.0.1", 0))
         free = s.getsockname()[1]
     with pytest.raises(st.LinkError) as e:
         st.connect(serial=rig["pty"], sim=f"127.0.0.1:{free}", db=None)
     assert str(free) in str(e.value)
+    with pytest.raises(st.LinkError) as e:
+        st.connect(serial=str(rig["dir"] / "no-such-pty"), sim=rig["sim"], db=None)
+    assert "no-such-pty" in str(e.value)
     with pytest.raises(ValueError, match="connect: sim 'nowhere': expected HOST:PORT"):
         st.connect(serial=rig["pty"], sim="nowhere", db=None)
 
