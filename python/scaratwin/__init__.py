@@ -33,10 +33,12 @@ from ._core import (  # noqa: F401  (re-exported)
     UnreachableError,
     connect,
     detect_cubes,
+    firmware_to_joints,
     fk,
     ik,
     ik_all,
     jacobian,
+    joints_to_firmware,
     joints_to_motors,
     joints_to_steps,
     load_robot,
@@ -56,10 +58,11 @@ from . import _core
 __all__ = [
     "ConfigError", "DatabaseError", "Error", "IkError", "LinkError", "PlanError", "Robot",
     "StatementError", "StateWatcher", "Trajectory", "Twin", "TwinDb", "UnreachableError",
-    "bin_dir", "connect", "default_robot", "default_robot_path", "detect_cubes", "fk", "ik",
-    "ik_all", "jacobian", "joints_to_motors", "joints_to_steps", "load_robot", "motors_to_joints",
-    "outside_limits", "paper_robot", "parse_robot", "plan_line", "plan_pick_place",
-    "plan_quintic", "plan_trapezoid", "plan_via_points", "quintic", "set_default_robot",
+    "bin_dir", "connect", "default_robot", "default_robot_path", "detect_cubes",
+    "firmware_to_joints", "fk", "ik", "ik_all", "jacobian", "joints_to_firmware",
+    "joints_to_motors", "joints_to_steps", "load_robot", "motors_to_joints", "outside_limits",
+    "paper_robot", "parse_robot", "plan_line", "plan_pick_place", "plan_quintic",
+    "plan_trapezoid", "plan_via_points", "quintic", "set_default_robot",
 ]
 
 __version__ = "0.1.0"

@@ -64,6 +64,15 @@ class Robot:
     @property
     def as_built(self) -> dict[str, Any]:
         """The [as_built] tolerance profile: seed, tolerance and explicit values (SI keys)."""
+    @property
+    def calibrated(self) -> bool:
+        """True for a calibration overlay that identified anything."""
+    @property
+    def calibration(self) -> dict[str, Any]:
+        """The joint map firmware -> true joints (zero until calibrated)."""
+    @property
+    def webcam(self) -> dict[str, Any] | None:
+        """The physical webcam as calibrated, None before."""
     def draw_as_built(self) -> dict[str, float]:
         """The robot as built that the emulator draws from the profile (SI deviations)."""
 
@@ -93,6 +102,12 @@ def outside_limits(joints: _Rows, robot: Robot | None = None) -> Any:
     """First joint (0..3) outside its limits, -1 inside: an int for (4,), int32 (N,)."""
 def joints_to_motors(joints: _Rows, robot: Robot | None = None) -> tuple[_F64, _F64 | float]:
     """(steps of Z, J2, J3 (N, 3) not rounded, wrist servo angle (deg))."""
+
+def firmware_to_joints(joints: _Rows, robot: Robot | None = None) -> _F64:
+    """The calibration's joint map: true joints from the firmware's (identity uncalibrated)."""
+
+def joints_to_firmware(joints: _Rows, robot: Robot | None = None) -> _F64:
+    """The inverse of firmware_to_joints."""
 
 def joints_to_steps(joints: _Rows, robot: Robot | None = None) -> _I32:
     """Nearest whole steps of Z, J2, J3: (3,) or (N, 3) int32."""

@@ -260,6 +260,20 @@ py::array motors_to_joints_py(const py::object& steps, const py::object& wrist_d
   return out;
 }
 
+// A joint map applied row by row (firmware_to_joints, joints_to_firmware).
+py::object map_rows(const py::object& joints, const py::object& robot, const char* call,
+                    JointVector (*f)(const RobotModel&, const JointVector&)) {
+  const RobotPtr r = robot_or_default(robot);
+  const Rows in = rows_of(joints, call, "joints");
+  py::array_t<double> out = new_rows(in.n, in.single);
+  double* o = out.mutable_data();
+  for (py::ssize_t i = 0; i < in.n; ++i) {
+    const JointVector q = f(r->model, row(in.ptr() + 4 * i));
+    for (int k = 0; k < 4; ++k) o[4 * i + k] = q[k];
+  }
+  return out;
+}
+
 RobotPtr load(const py::object& path) {
   if (path.is_none()) {
     return py::module_::import("scaratwin").attr("default_robot")().cast<RobotPtr>();
@@ -366,6 +380,51 @@ void bind_robot(py::module_& m) {
           "as_built", [](const Robot& r) { return as_built_dict(r.model.physical.as_built); },
           "The [as_built] tolerance profile of the description (SI keys: a2_m, j2_zero_rad, "
           "z_lead_fraction, ...): seed, tolerance per parameter, explicit values.")
+      .def_property_readonly(
+          "calibrated",
+          [](const Robot& r) {
+            const JointCalibration& c = r.model.calibration;
+            return r.model.webcam.valid || c.z_offset_m != 0.0 || c.z_scale != 0.0 ||
+                   c.j2_zero_rad != 0.0 || c.j3_zero_rad != 0.0 || c.wrist_offset_rad != 0.0 ||
+                   c.wrist_gain != 0.0 || c.backlash != std::array<double, 3>{};
+          },
+          "True for a calibration overlay (the description the calibration writes) that identified "
+          "anything; dh and the joint map then describe the robot as measured.")
+      .def_property_readonly(
+          "calibration",
+          [](const Robot& r) {
+            const JointCalibration& c = r.model.calibration;
+            py::dict d;
+            d["z_offset_m"] = c.z_offset_m;
+            d["z_scale"] = c.z_scale;
+            d["j2_zero_rad"] = c.j2_zero_rad;
+            d["j3_zero_rad"] = c.j3_zero_rad;
+            d["wrist_offset_rad"] = c.wrist_offset_rad;
+            d["wrist_gain"] = c.wrist_gain;
+            d["backlash"] = std::vector<double>(c.backlash.begin(), c.backlash.end());
+            return d;
+          },
+          "The calibration's joint map from the firmware's joints to the true ones (all zero, "
+          "the identity, until calibrated): z_offset_m, z_scale, j2_zero_rad, j3_zero_rad, "
+          "wrist_offset_rad, wrist_gain, backlash (Z m, J2 rad, J3 rad).")
+      .def_property_readonly(
+          "webcam",
+          [](const Robot& r) -> py::object {
+            const WebcamCalibration& w = r.model.webcam;
+            if (!w.valid) return py::none();
+            py::dict d;
+            d["pos_m"] = std::vector<double>(w.pos_m.begin(), w.pos_m.end());
+            d["r_bc"] = std::vector<double>(w.r_bc.begin(), w.r_bc.end());
+            d["f_px"] = w.f_px;
+            d["cx_px"] = w.cx_px;
+            d["cy_px"] = w.cy_px;
+            d["k1"] = w.k1;
+            d["k2"] = w.k2;
+            d["width_px"] = w.width_px;
+            d["height_px"] = w.height_px;
+            return d;
+          },
+          "The physical webcam as calibrated (pinhole and radial distortion), None before.")
       .def(
           "draw_as_built",
           [](const Robot& r) {
@@ -425,6 +484,21 @@ void bind_robot(py::module_& m) {
         "zero (not rounded; J3 includes the belt coupling), wrist servo angle in degrees.");
   m.def("joints_to_steps", &joints_to_steps_py, py::arg("joints"), py::arg("robot") = py::none(),
         "Nearest whole step counts of Z, J2, J3 (int32, shape (3,) or (N, 3)).");
+  m.def(
+      "firmware_to_joints",
+      [](const py::object& joints, const py::object& robot) {
+        return map_rows(joints, robot, "firmware_to_joints", &firmware_to_joints);
+      },
+      py::arg("joints"), py::arg("robot") = py::none(),
+      "The calibration's joint map: the robot's true joints from the firmware's joint values "
+      "(dead bands at their middle). The identity for a description not calibrated.");
+  m.def(
+      "joints_to_firmware",
+      [](const py::object& joints, const py::object& robot) {
+        return map_rows(joints, robot, "joints_to_firmware", &joints_to_firmware);
+      },
+      py::arg("joints"), py::arg("robot") = py::none(),
+      "The inverse of firmware_to_joints: the firmware's joint values of true joints.");
   m.def("motors_to_joints", &motors_to_joints_py, py::arg("steps"), py::arg("wrist_deg"),
         py::arg("robot") = py::none(),
         "Joints from motor steps (Z, J2, J3; (3,) or (N, 3)) and the wrist servo angle (deg).");

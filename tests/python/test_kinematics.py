@@ -240,3 +240,27 @@ def test_another_robot_changes_the_kinematics():
     longer = st.parse_robot("[dh.j2]\na_m = 0.1\n")
     assert st.fk([0.12, 0, 0, 0], robot=longer)[0] == pytest.approx(0.067 + 0.1 + 0.095)
     assert st.fk([0.12, 0, 0, 0])[0] == pytest.approx(0.067 + 0.092 + 0.095)
+
+
+def test_a_calibration_overlay_is_the_robot_as_measured(tmp_path):
+    base = st.default_robot()
+    overlay = tmp_path / "calibrated.toml"
+    overlay.write_text(f'base = "{base.path}"\n\n[calibration]\ndate = "2026-11-24T05:00:00Z"\n'
+                       '[calibration.identified]\na2_mm = [0.5, 0.01]\n'
+                       'j2_zero_deg = [0.3, 0.02]\nwrist_gain_percent = [1.0, 0.1]\n')
+    robot = st.load_robot(overlay)
+    assert not base.calibrated and base.webcam is None
+    assert robot.calibrated and robot.path == str(overlay)
+    assert robot.dh["a_m"][1] == pytest.approx(0.0925, abs=1e-15)
+    cal = robot.calibration
+    assert cal["j2_zero_rad"] == pytest.approx(math.radians(0.3))
+    assert cal["wrist_gain"] == pytest.approx(0.01)
+    # FK of the measured robot: the DH product with a2 = 92.5 mm
+    q = np.array([0.1, 0.4, 0.7, 0.2])
+    expected = fk_oracle(q) + np.array([0.0005 * math.cos(0.4), 0.0005 * math.sin(0.4), 0, 0])
+    np.testing.assert_allclose(st.fk(q, robot=robot), expected, atol=1e-12)
+    # the joint map of robot_model.hpp: q2 = q2_fw + j2_zero, q4 = (1 + wrist_gain) q4_fw
+    true = st.firmware_to_joints(q, robot=robot)
+    np.testing.assert_allclose(true, [0.1, 0.4 + math.radians(0.3), 0.7, 0.2 * 1.01], atol=1e-12)
+    np.testing.assert_allclose(st.joints_to_firmware(true, robot=robot), q, atol=1e-12)
+    np.testing.assert_array_equal(st.firmware_to_joints(q), q)  # identity uncalibrated
