@@ -388,7 +388,7 @@ void bind_robot(py::module_& m) {
                    c.j2_zero_rad != 0.0 || c.j3_zero_rad != 0.0 || c.wrist_offset_rad != 0.0 ||
                    c.wrist_gain != 0.0 || c.backlash != std::array<double, 3>{};
           },
-          "True for a calibration overlay (the description the calibration writes) that identified "
+          "True for a calibration overlay (written by `scaratwin calibrate`) that identified "
           "anything; dh and the joint map then describe the robot as measured.")
       .def_property_readonly(
           "calibration",
