@@ -1,5 +1,6 @@
 #!/usr/bin/env bash
-# Installs the Debian 12 packages scaratwin needs (build, tests, firmware, emulator, UI tests).
+# Installs the Debian 12 packages scaratwin needs (build, tests, firmware, emulator, UI tests,
+# the Python package).
 # Safe to run again: apt-get skips what is already installed. Needs root (or sudo).
 set -euo pipefail
 
@@ -13,6 +14,8 @@ packages=(
   gcc-avr avr-libc binutils-avr arduino-core-avr simavr libsimavr-dev libsimavrparts1 libelf-dev
   clang libclang-rt-14-dev
   chromium
+  pybind11-dev python3-dev python3-numpy python3-pytest python3-pandas python3-matplotlib
+  jupyter-nbconvert python3-ipykernel
 )
 
 missing=()

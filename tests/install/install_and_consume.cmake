@@ -68,6 +68,11 @@ expect_file(${prefix}/${CMAKEDIR}/scaratwinConfigVersion.cmake)
 expect_file(${prefix}/${DOCDIR}/LICENSE)
 expect_file(${prefix}/${DOCDIR}/README.md)
 expect_file(${prefix}/${DATADIR}/bash-completion/completions/scaratwin)
+if(PYTHON)
+  foreach(f __init__.py _paths.py _core.pyi py.typed)
+    expect_file(${prefix}/${PYTHONDIR}/scaratwin/${f})
+  endforeach()
+endif()
 
 # 2. a moved prefix works: the installed executables find their data beside themselves, run
 # from an empty folder with a PATH of the prefix's bin alone
@@ -83,6 +88,21 @@ if(WITH_ROBOT)
     expect_match("${out}" "${moved}/${data}/firmware/uno/scaratwin-fw-uno.elf"
                  "scaratwin-robot --help")
   endif()
+endif()
+if(PYTHON)
+  # the Python package, from its dist-packages folder in the moved prefix: the prefix's robot
+  # description and executables
+  set(py_env ${CMAKE_COMMAND} -E env --unset=SCARATWIN_CONFIG --unset=SCARATWIN_DATA_DIR
+             PYTHONPATH=${moved}/${PYTHONDIR} ASAN_OPTIONS=detect_leaks=0)
+  if(PY_PRELOAD)
+    list(APPEND py_env "LD_PRELOAD=${PY_PRELOAD}")
+  endif()
+  run(COMMAND ${py_env} ${PYTHON} -c
+      "import scaratwin as st\nprint(st.default_robot().path, st.bin_dir(), st.fk([0.12, 0, 0, 0])[0])"
+      WORKING_DIRECTORY ${empty} OUTPUT out)
+  message(STATUS "${out}")
+  expect_match("${out}" "${moved}/${data}/config/scara.toml ${moved}/${BINDIR} 0.254"
+               "import scaratwin from the moved prefix")
 endif()
 
 # 3. a data folder moved on its own: a clear message naming the folder; SCARATWIN_DATA_DIR

@@ -150,6 +150,10 @@ class Hub {
   // thread (not from a signal handler).
   void interrupt();
   bool interrupted() const { return interrupted_.load(); }
+  // Ends the effect of interrupt(): later statements and waits work again (a session that goes
+  // on after Ctrl-C, as an interactive Python one does). The robot stays stopped and halted
+  // until the next home() or trajectory (recover()) clears that.
+  void clear_interrupt() { interrupted_ = false; }
   // Waits `seconds`, or until interrupt().
   Status sleep(double seconds);
   // Desync alarms raised during trajectories since connect.
