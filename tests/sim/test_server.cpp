@@ -214,8 +214,15 @@ TEST_F(SimServerTest, SimulateModeFollowsTargetsAndGrasps) {
   ASSERT_TRUE(client_->send("TJ,1,0,47,0,0,0,\n").ok());
   const auto ja = lines(1);
   ASSERT_EQ(ja[0].rfind("JA,1,", 0), 0u);
-  // d1 0.047 puts the tool at the grasp height over x = 0.067 + 0.187 = 0.254: no cube there
-  std::this_thread::sleep_for(std::chrono::milliseconds(600));
+  // d1 0.047 puts the tool at the grasp height over x = 0.067 + 0.187 = 0.254: no cube there.
+  // Judged after 0.6 s of simulated time (the wall clock only guards against a hang: a loaded
+  // machine slows the simulation, it does not change where it is 0.6 s later)
+  const double applied_s = world_->snapshot().time_s;
+  const auto guard = std::chrono::steady_clock::now() + std::chrono::seconds(60);
+  while (world_->snapshot().time_s < applied_s + 0.6 && std::chrono::steady_clock::now() < guard) {
+    std::this_thread::sleep_for(std::chrono::milliseconds(5));
+  }
+  ASSERT_GE(world_->snapshot().time_s, applied_s + 0.6) << "the simulation did not run";
   EXPECT_NEAR(world_->snapshot().joints[0], 0.047, 1e-3);
   ASSERT_TRUE(client_->send("GR,1,\nGR,0,\n").ok());
   EXPECT_EQ(lines(2), (std::vector<std::string>{"GR,1,-1,", "GR,0,-1,"}));
