@@ -290,5 +290,33 @@ TEST(SimServerPhase, HandsTheTwinPhaseOn) {
   EXPECT_EQ(phases, (std::vector<std::string>{"control", "prediction", ""}));
 }
 
+// A hub's hello and a mode switch tell the link figures that a new stream of joint frames
+// begins (its sequence numbers do not continue the last one's); nothing else does, and the
+// hook runs before the frames that follow, in order with them.
+TEST(SimServerStream, HelloAndModeSwitchStartANewStreamOfFrames) {
+  auto m = load_robot_config(SCARATWIN_CONFIG_FILE);
+  ASSERT_TRUE(m.ok());
+  WorldOptions wo;
+  wo.camera = false;
+  auto world = World::create(*m, {}, wo);
+  ASSERT_TRUE(world.ok());
+  std::vector<std::string> events;
+  ServerOptions o;
+  o.port = 0;
+  o.on_new_stream = [&events] { events.emplace_back("new"); };
+  o.on_joint_frame = [&events](const JointFrame& f) { events.push_back(std::to_string(f.seq)); };
+  auto server = SimServer::create(**world, o);
+  ASSERT_TRUE(server.ok());
+  EXPECT_EQ((*server)->handle_line("HI,1,").rfind("HI,1,", 0), 0u);
+  EXPECT_EQ((*server)->handle_line("JD,5,0,80,0,0,0,").rfind("JA,5,", 0), 0u);
+  EXPECT_EQ((*server)->handle_line("PI,1,"), "AK,PI,1,\n");
+  EXPECT_EQ((*server)->handle_line("TW,mirror,"), "AK,TW,\n");
+  EXPECT_EQ((*server)->handle_line("JD,6,0,80,0,0,0,").rfind("JA,6,", 0), 0u);
+  EXPECT_EQ((*server)->handle_line("MD,mirror,"), "AK,MD,\n");
+  EXPECT_EQ((*server)->handle_line("JD,900,0,80,0,0,0,").rfind("JA,900,", 0), 0u);
+  EXPECT_EQ((*server)->handle_line("HI,2,"), "ER,13,1,\n");  // refused: no new stream
+  EXPECT_EQ(events, (std::vector<std::string>{"new", "5", "6", "new", "900"}));
+}
+
 }  // namespace
 }  // namespace scaratwin::sim
