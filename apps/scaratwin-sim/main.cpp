@@ -152,6 +152,10 @@ int main(int argc, char** argv) {
   serve.on_joint_frame = [&link_monitor](const sim::JointFrame& f) {
     link_monitor.on_joint_frame(f.seq, f.t_us, f.q, f.applied_us);
   };
+  // a new hub (its hello) or a mode switch starts a new stream of frames, decided on the
+  // server's thread in order with the frames (the feed's polling of the connection state can
+  // miss a hub that left and another that came between two polls)
+  serve.on_new_stream = [&link_monitor] { link_monitor.restart_sequence(); };
   serve.on_twin_phase = [&link_monitor](const std::string& phase) {
     link_monitor.set_twin_mode(phase);
   };

@@ -34,9 +34,11 @@ std::optional<JointVector> joints_from_edge(const std::vector<double>& v, const 
                  v.size());
     return std::nullopt;
   }
-  for (double x : v) {
-    if (!std::isfinite(x)) {
-      std::fprintf(stderr, "scaratwin: %s: values must be finite numbers\n", what);
+  static constexpr const char* kNames[4] = {"D1_M", "Q2_DEG", "Q3_DEG", "Q4_DEG"};
+  for (std::size_t i = 0; i < 4; ++i) {
+    if (!std::isfinite(v[i])) {
+      std::fprintf(stderr, "scaratwin: %s: %s = %g: must be a finite number\n", what, kNames[i],
+                   v[i]);
       return std::nullopt;
     }
   }
@@ -94,9 +96,11 @@ int run_fk(const CommonOptions& common, const FkArgs& a) {
 int run_ik(const CommonOptions& common, const IkArgs& a) {
   auto model = load_model(common);
   if (!model) return kExitUsage;
-  for (double v : a.pose) {
-    if (!std::isfinite(v)) {
-      std::fprintf(stderr, "scaratwin ik: X_M Y_M Z_M YAW_DEG must be finite numbers\n");
+  static constexpr const char* kNames[4] = {"X_M", "Y_M", "Z_M", "YAW_DEG"};
+  for (std::size_t i = 0; i < a.pose.size() && i < 4; ++i) {
+    if (!std::isfinite(a.pose[i])) {
+      std::fprintf(stderr, "scaratwin ik: %s = %g: must be a finite number\n", kNames[i],
+                   a.pose[i]);
       return kExitUsage;
     }
   }

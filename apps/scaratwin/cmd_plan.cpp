@@ -28,10 +28,18 @@ struct PlanArgs {
 };
 
 std::optional<ToolPose> pose_from_edge(const std::vector<double>& v, const char* what) {
-  if (v.size() != 4 || !std::isfinite(v[0]) || !std::isfinite(v[1]) || !std::isfinite(v[2]) ||
-      !std::isfinite(v[3])) {
-    std::fprintf(stderr, "scaratwin plan: %s needs 4 finite values X_M Y_M Z_M YAW_DEG\n", what);
+  if (v.size() != 4) {
+    std::fprintf(stderr, "scaratwin plan: %s needs 4 values X_M Y_M Z_M YAW_DEG, got %zu\n", what,
+                 v.size());
     return std::nullopt;
+  }
+  static constexpr const char* kNames[4] = {"X_M", "Y_M", "Z_M", "YAW_DEG"};
+  for (std::size_t i = 0; i < 4; ++i) {
+    if (!std::isfinite(v[i])) {
+      std::fprintf(stderr, "scaratwin plan: %s: %s = %g: must be a finite number\n", what,
+                   kNames[i], v[i]);
+      return std::nullopt;
+    }
   }
   return ToolPose{v[0], v[1], v[2], deg_to_rad(v[3])};
 }
@@ -196,14 +204,20 @@ void add_plan_command(CLI::App& app, CommonOptions& common, Runner& run) {
   cmd->add_option("--place", a->place, "place pose X_M Y_M Z_M YAW_DEG (with --pick)")->expected(4);
   cmd->add_option("--profile", a->profile, "joint profile: quintic (paper's jtraj) or trapezoid")
       ->capture_default_str();
-  cmd->add_option("--samples", a->samples, "samples of a quintic")->capture_default_str();
+  // bad numbers are bad input (exit 2, the value named), not a plan that failed (exit 1)
+  cmd->add_option("--samples", a->samples, "samples of a quintic")
+      ->capture_default_str()
+      ->check(CLI::Range(2, 1000000));
   cmd->add_option("--duration", a->duration_s,
                   "duration of a quintic in s (0: shortest within the motor limits)")
-      ->capture_default_str();
+      ->capture_default_str()
+      ->check(CLI::NonNegativeNumber);
   cmd->add_option("--dt", a->dt_s, "sample spacing of trapezoids and lines, s")
-      ->capture_default_str();
+      ->capture_default_str()
+      ->check(CLI::PositiveNumber);
   cmd->add_option("--speed-scale", a->speed_scale, "fraction of the motor limits to use (0, 1]")
-      ->capture_default_str();
+      ->capture_default_str()
+      ->check(CLI::PositiveNumber & CLI::Range(0.0, 1.0));
   cmd->add_flag("--csv", a->csv, "print every sample as CSV (SI lengths, degrees)");
   add_common_options(*cmd, common);
   cmd->callback([&common, &run, a] { run = [&common, a] { return run_plan(common, *a); }; });

@@ -318,14 +318,23 @@ void handle_packet(const core::Packet& p) {
   }
 }
 
+uint8_t g_lost_lines = 0;  // lines the full receive ring dropped, not yet answered
+
 void read_serial() {
-  if (serial_take_overrun()) {
-    // bytes were lost: the line they belonged to cannot be trusted
-    g_decoder.reset();
-    reply_er(core::kErrQueueFull, true, 0);
-  }
   while (serial_tx_free() >= kReplyReserve) {
-    int16_t b = serial_read();
+    if (g_lost_lines != 0) {
+      // a line that lost bytes gets ER=6=0= in the place of its reply, in order
+      --g_lost_lines;
+      reply_er(core::kErrQueueFull, true, 0);
+      continue;
+    }
+    uint8_t lost = 0;
+    int16_t b = serial_read(&lost);
+    if (b == kSerialLost) {
+      g_decoder.reset();  // the start of the first lost line
+      g_lost_lines = lost;
+      continue;
+    }
     if (b < 0) return;
     core::Event ev;
     uint8_t type = g_decoder.push((uint8_t)b, &ev);
@@ -459,6 +468,8 @@ void controller_poll() {
   report_poll(now, flags(), queue_free());
 }
 
-bool controller_busy() { return g_rt_stop || g_rt_resume || serial_available(); }
+bool controller_busy() {
+  return g_rt_stop || g_rt_resume || g_lost_lines != 0 || serial_available();
+}
 
 }  // namespace fw

@@ -14,7 +14,13 @@ constexpr uint8_t kTxSize = 128;
 volatile uint8_t g_rx[kRxSize];
 volatile uint8_t g_rx_head = 0;  // written by the ISR
 volatile uint8_t g_rx_tail = 0;  // written by the main loop
-volatile bool g_rx_overrun = false;
+// A loss: the ring was full when a byte came. That line is dropped (the rest of it too), and
+// so is every line after it until the reader reaches the place of the loss (the ring position
+// of the first byte that did not fit), so that the reader learns of the lost lines in their
+// place in the stream: g_loss_lines of them (saturating at 255), 0 when there is no loss.
+volatile uint8_t g_loss_at = 0;
+volatile uint8_t g_loss_lines = 0;
+volatile bool g_rx_discarding = false;  // dropping the rest of a lost line
 volatile uint8_t g_tx[kTxSize];
 volatile uint8_t g_tx_head = 0;  // written by the main loop
 volatile uint8_t g_tx_tail = 0;  // written by the ISR
@@ -28,9 +34,24 @@ ISR(USART_RX_vect_NAME) {
     if (g_on_realtime) g_on_realtime(b);
     return;
   }
+  if (g_rx_discarding) {
+    if (b == '\n') g_rx_discarding = false;
+    return;
+  }
+  if (g_loss_lines != 0) {
+    // the reader has not reached the loss yet: this line is lost as well (an empty line is no
+    // line: it gets no reply)
+    if (b == '\n') return;
+    if (g_loss_lines != 255) g_loss_lines = (uint8_t)(g_loss_lines + 1);
+    g_rx_discarding = true;
+    return;
+  }
   uint8_t next = (uint8_t)((g_rx_head + 1) & (kRxSize - 1));
   if (next == g_rx_tail) {
-    g_rx_overrun = true;
+    // full: this line is lost, the rest of it dropped up to its '\n'
+    g_loss_at = g_rx_head;
+    g_loss_lines = 1;
+    g_rx_discarding = b != '\n';
     return;
   }
   g_rx[g_rx_head] = b;
@@ -57,24 +78,24 @@ void serial_init(uint32_t baud, RealtimeHandler on_realtime) {
   UCSR0B = (1 << RXEN0) | (1 << TXEN0) | (1 << RXCIE0);
 }
 
-int16_t serial_read() {
+int16_t serial_read(uint8_t* lost_lines) {
   uint8_t tail = g_rx_tail;
+  if (g_loss_lines != 0 && g_loss_at == tail) {
+    // the lines lost here come before the byte stored here
+    uint8_t sreg = SREG;
+    cli();
+    *lost_lines = g_loss_lines;
+    g_loss_lines = 0;
+    SREG = sreg;
+    return kSerialLost;
+  }
   if (tail == g_rx_head) return -1;
   uint8_t b = g_rx[tail];
   g_rx_tail = (uint8_t)((tail + 1) & (kRxSize - 1));
   return b;
 }
 
-bool serial_available() { return g_rx_tail != g_rx_head; }
-
-bool serial_take_overrun() {
-  uint8_t sreg = SREG;
-  cli();
-  bool o = g_rx_overrun;
-  g_rx_overrun = false;
-  SREG = sreg;
-  return o;
-}
+bool serial_available() { return g_rx_tail != g_rx_head || g_loss_lines != 0; }
 
 uint8_t serial_tx_free() { return (uint8_t)((g_tx_tail - g_tx_head - 1) & (kTxSize - 1)); }
 

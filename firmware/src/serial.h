@@ -2,8 +2,11 @@
 // directions. The receive interrupt picks the real-time command bytes ('!' stop, '#' hold,
 // '~' resume) out of the stream and hands them to a callback at once, from the interrupt, so
 // they take effect even in the middle of a line; every other byte goes to the receive ring
-// (128 bytes, twice the host's 64-byte window). Writes never block: the caller asks for room
-// first, so a slow host cannot stall the control loop.
+// (128 bytes, twice the host's 64-byte window). A host that ignores the window overruns the
+// ring: the line that finds it full is dropped whole (the rest of it up to its '\n' too), and
+// so is every line after it until the reader has caught up with the place of the loss; the
+// reader learns how many lines were lost there, so that their replies can take their place. Writes never block: the caller asks for room first, so a slow host cannot
+// stall the control loop.
 #pragma once
 
 #include <stdint.h>
@@ -13,12 +16,13 @@ namespace fw {
 using RealtimeHandler = void (*)(uint8_t byte);
 
 void serial_init(uint32_t baud, RealtimeHandler on_realtime);
-// Next received byte, or -1 when none is waiting.
-int16_t serial_read();
-// True if a received byte is waiting.
+constexpr int16_t kSerialLost = -2;
+// Next received byte; -1 when none is waiting; kSerialLost when *lost_lines whole lines were
+// lost to a full ring at this place in the stream (the bytes of the first one read so far
+// belong to it).
+int16_t serial_read(uint8_t* lost_lines);
+// True if a received byte (or a loss) is waiting.
 bool serial_available();
-// True (once) if received bytes were dropped because the ring was full.
-bool serial_take_overrun();
 // Free bytes in the transmit ring.
 uint8_t serial_tx_free();
 // Queues n bytes if all fit; returns false (and queues nothing) otherwise.

@@ -59,9 +59,11 @@ inline void set_dirs(uint8_t negative) {
     PIN_HIGH(PIN_DIR_J3);
 }
 
-// Loads the next queued segment; false if none may start.
+// Loads the next queued segment; false if none may start. A hold that is still decelerating
+// runs on into the next segment at the speed scale it has reached (stopping at the segment's
+// end would be a hard stop from that speed); once held at rest, nothing starts.
 inline bool load_next() {
-  if (!g_run || g_hold_req || g_blocked) return false;
+  if (!g_run || g_blocked || (g_hold_req && g_held)) return false;
   const Segment* s = g_queue.front();
   if (s == nullptr) return false;
   g_dda.start(*s);

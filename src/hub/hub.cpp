@@ -159,8 +159,15 @@ void Hub::add_sample(SampleSource source, double t_s, std::int64_t seq, const Jo
 // --- mirror -----------------------------------------------------------------------------------
 
 void Hub::set_mirror(bool on) {
-  std::lock_guard<std::mutex> lock(mu_);
-  mirror_ = on;
+  bool started = false;
+  {
+    std::lock_guard<std::mutex> lock(mu_);
+    started = on && !mirror_;
+    mirror_ = on;
+  }
+  // mirroring (again): the simulator in mirror mode, and a new stream of frames for it (the
+  // reports the hub did not forward meanwhile were not lost, docs/protocol.md section 7)
+  if (started) (void)sim_->post(pr::SetMode{pr::SimMode::kMirror});
 }
 
 MirrorCounters Hub::mirror_counters() const {

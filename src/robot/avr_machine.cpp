@@ -11,6 +11,7 @@
 #include <map>
 
 extern "C" {
+#include <simavr/avr_eeprom.h>
 #include <simavr/avr_extint.h>
 #include <simavr/avr_ioport.h>
 #include <simavr/avr_uart.h>
@@ -153,6 +154,26 @@ void AvrMachine::reassert(char port) {
     avr_raise_irq(pin, level);
   }
   reasserting_ = false;
+}
+
+// simavr 1.6's EEPROM ioctls answer -1 when they succeed (and when no module handles them),
+// -2 on a bad argument: success shows in what they did. GET without a buffer hands out the
+// EEPROM's own memory.
+std::span<const std::uint8_t> AvrMachine::eeprom() const {
+  const std::uint32_t size = avr_->e2end + 1;
+  avr_eeprom_desc_t desc{nullptr, 0, size};
+  avr_ioctl(avr_, AVR_IOCTL_EEPROM_GET, &desc);
+  if (desc.ee == nullptr) return {};
+  return {desc.ee, size};
+}
+
+bool AvrMachine::set_eeprom(std::span<const std::uint8_t> bytes) {
+  const auto now = eeprom();
+  if (bytes.empty() || bytes.size() != now.size()) return false;
+  std::vector<std::uint8_t> copy(bytes.begin(), bytes.end());
+  avr_eeprom_desc_t desc{copy.data(), 0, static_cast<std::uint32_t>(copy.size())};
+  avr_ioctl(avr_, AVR_IOCTL_EEPROM_SET, &desc);
+  return std::equal(bytes.begin(), bytes.end(), now.begin());
 }
 
 void AvrMachine::on_uart_output(ByteCallback cb) { uart_out_ = std::move(cb); }

@@ -15,6 +15,7 @@
 #include <deque>
 #include <functional>
 #include <memory>
+#include <span>
 #include <string>
 #include <vector>
 
@@ -50,6 +51,13 @@ class AvrMachine {
   // Queues a byte for the firmware's UART0 receiver.
   void uart_send(std::uint8_t byte);
   std::size_t uart_pending() const { return to_avr_.size(); }
+
+  // The MCU's EEPROM (1 KiB on the ATmega328P): its bytes now, and writing them (at power-up,
+  // before the firmware runs, to stand for what an earlier session left). set_eeprom() is
+  // false when the size is not the MCU's.
+  // The span points into simavr's own EEPROM memory (valid as long as the machine).
+  std::span<const std::uint8_t> eeprom() const;
+  bool set_eeprom(std::span<const std::uint8_t> bytes);
 
   // Runs until the cycle counter reaches `cycle` (the last instruction may end a few cycles
   // past it); while the firmware sleeps its idle cycles are skipped, not emulated, and the

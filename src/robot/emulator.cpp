@@ -4,11 +4,13 @@
 #include <poll.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
 #include <ctime>
 #include <fstream>
+#include <iterator>
 #include <sstream>
 
 #include <fmt/format.h>
@@ -116,19 +118,21 @@ Result<std::unique_ptr<Emulator>> Emulator::create(const EmulatorOptions& option
     }
   }
   e->wire_pins();
+  if (Status st = e->load_eeprom(); !st) return st.error();
   for (const auto& s : e->scenario_) {
     // validate the commands now rather than failing in the middle of a run
     std::istringstream ls(s.command);
     std::string verb;
     ls >> verb;
-    static const char* kVerbs[] = {"press", "release", "cut",   "lose",    "corrupt", "query",
-                                   "rate",  "mark",    "place", "clear",   "payload", "pattern"};
+    static const char* kVerbs[] = {"press",   "release", "cut",    "lose",  "corrupt",
+                                   "query",   "rate",    "mark",   "place", "clear",
+                                   "payload", "pattern", "endstop"};
     if (std::find_if(std::begin(kVerbs), std::end(kVerbs),
                      [&](const char* v) { return verb == v; }) == std::end(kVerbs)) {
       return Error{
           1, "scenario command '" + s.command +
-                 "' is unknown: use press, release, cut, lose, corrupt, place, clear, payload or "
-                 "pattern"};
+                 "' is unknown: use press, release, cut, lose, corrupt, endstop, place, clear, "
+                 "payload or pattern"};
     }
   }
   return e;
@@ -159,8 +163,49 @@ void Emulator::wire_pins() {
   update_endstops();
 }
 
+Status Emulator::load_eeprom() {
+  const auto now = avr_->eeprom();
+  eeprom_saved_.assign(now.begin(), now.end());
+  const std::string& path = options_.eeprom_file;
+  if (path.empty()) return Ok{};
+  std::ifstream f(path, std::ios::binary);
+  if (!f) return Ok{};  // a new board: the EEPROM erased (simavr starts it at 0xff)
+  std::vector<std::uint8_t> bytes((std::istreambuf_iterator<char>(f)),
+                                  std::istreambuf_iterator<char>());
+  if (!avr_->set_eeprom(bytes)) {
+    return Error{1, fmt::format("--eeprom {}: {} bytes, but the {}'s EEPROM holds {} (give a file "
+                                "an earlier run wrote, or a new path)",
+                                path, bytes.size(), options_.mcu, eeprom_saved_.size())};
+  }
+  eeprom_saved_ = std::move(bytes);
+  return Ok{};
+}
+
+void Emulator::save_eeprom_if_changed() {
+  if (options_.eeprom_file.empty()) return;
+  const auto now = avr_->eeprom();
+  if (std::equal(now.begin(), now.end(), eeprom_saved_.begin(), eeprom_saved_.end())) return;
+  // a new file renamed over the old one: a run killed in the middle leaves one or the other
+  const std::string tmp = options_.eeprom_file + ".new";
+  {
+    std::ofstream f(tmp, std::ios::binary | std::ios::trunc);
+    f.write(reinterpret_cast<const char*>(now.data()), static_cast<std::streamsize>(now.size()));
+    if (!f) {
+      std::fprintf(stderr, "scaratwin-robot: cannot write the EEPROM to %s\n", tmp.c_str());
+      return;
+    }
+  }
+  if (std::rename(tmp.c_str(), options_.eeprom_file.c_str()) != 0) {
+    std::fprintf(stderr, "scaratwin-robot: cannot write the EEPROM to %s\n",
+                 options_.eeprom_file.c_str());
+    return;
+  }
+  eeprom_saved_.assign(now.begin(), now.end());
+}
+
 void Emulator::update_endstops() {
-  const std::uint8_t es = plant_ ? plant_->endstops() : mech_.endstops();
+  std::uint8_t es = plant_ ? plant_->endstops() : mech_.endstops();
+  es = static_cast<std::uint8_t>((es & ~endstop_forced_mask_) | endstop_forced_closed_);
   if (es == endstops_driven_) return;
   for (int a = 0; a < kAxes; ++a) {
     const bool closed = (es >> a) & 1;
@@ -368,6 +413,22 @@ std::string Emulator::command(const std::string& line, int client) {
     mech_.lose_steps(a, static_cast<std::int32_t>(n));
     return "OK " + line;
   }
+  if (verb == "endstop") {
+    // a broken switch or wire: it reads open (or closed) whatever its axis does
+    std::string axis, state;
+    in >> axis >> state;
+    const int a = find_name(kAxisNames, axis);
+    if (a < 0 || (state != "open" && state != "closed" && state != "ok")) {
+      return "ERR endstop needs an axis (z, j2, j3) and open, closed or ok";
+    }
+    const auto bit = static_cast<std::uint8_t>(1u << a);
+    endstop_forced_mask_ = static_cast<std::uint8_t>(state == "ok" ? endstop_forced_mask_ & ~bit
+                                                                   : endstop_forced_mask_ | bit);
+    endstop_forced_closed_ = static_cast<std::uint8_t>(
+        state == "closed" ? endstop_forced_closed_ | bit : endstop_forced_closed_ & ~bit);
+    update_endstops();
+    return "OK " + line;
+  }
   if (verb == "corrupt") {
     long n = 0;
     std::string dir = "rx";
@@ -379,8 +440,8 @@ std::string Emulator::command(const std::string& line, int client) {
     return "OK " + line;
   }
   return "ERR unknown command '" + verb +
-         "': use query, rate, mark, press, release, cut, lose, corrupt, cubes, place, clear, "
-         "payload, pattern";
+         "': use query, rate, mark, press, release, cut, lose, corrupt, endstop, cubes, place, "
+         "clear, payload, pattern";
 }
 
 namespace {
@@ -400,6 +461,7 @@ Status Emulator::run(const volatile bool& stop) {
                           std::to_string(avr_->sim_seconds()) + " s"};
     }
     const double now_s = avr_->sim_seconds();
+    save_eeprom_if_changed();  // before the firmware's reply to a CF can leave (pty_.flush)
     if (plant_) {
       // the physical world catches up with the firmware's emulated time
       if (Status st = plant_->advance_to(now_s); !st) return st.error();
@@ -491,6 +553,7 @@ Status Emulator::run(const volatile bool& stop) {
              !(host_byte && clock_us(CLOCK_MONOTONIC) >= sync_us));
     if (!host_byte && speed > 0) idle_to = cycle_at(clock_us(CLOCK_MONOTONIC));
   }
+  save_eeprom_if_changed();
   pty_.flush();
   return Ok{};
 }

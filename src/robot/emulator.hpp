@@ -48,6 +48,11 @@ struct EmulatorOptions {
   // and that many bytes of RGB (row 0 at the top), then a newline.
   int camera_port = 0;
   std::uint32_t profile_cycles = 0;  // > 0: sample the firmware's program counter this often
+  // Non-volatile EEPROM: loaded from this file at power-up (absent: an erased EEPROM, all
+  // 0xff) and written back (whole, by rename) whenever the firmware has changed it, so the
+  // settings survive the emulator's end however it ends, as they survive a board's power
+  // cycle. Empty: the EEPROM lives as long as the run.
+  std::string eeprom_file;
 };
 
 // One timed command of a scenario file: "<t_ms> <command>".
@@ -83,6 +88,8 @@ class Emulator {
   void from_host(const std::vector<std::uint8_t>& bytes);
   void to_host(std::uint8_t byte);
   bool link_cut() const;
+  Status load_eeprom();
+  void save_eeprom_if_changed();
 
   EmulatorOptions options_;
   std::unique_ptr<AvrMachine> avr_;
@@ -100,6 +107,10 @@ class Emulator {
   std::uint32_t corrupt_rx_ = 0;
   std::uint32_t corrupt_tx_ = 0;
   std::uint64_t last_rx_sim_us_ = 0;
+  // broken switches (side channel `endstop`): bits forced, and the level they are forced to
+  std::uint8_t endstop_forced_mask_ = 0;
+  std::uint8_t endstop_forced_closed_ = 0;
+  std::vector<std::uint8_t> eeprom_saved_;  // the EEPROM as last loaded or written
   std::vector<ScenarioStep> scenario_;
   std::size_t scenario_next_ = 0;
 };

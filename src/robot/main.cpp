@@ -66,6 +66,10 @@ int main(int argc, char** argv) {
                  "(default: the home pose)")
       ->delimiter(',')
       ->expected(3);
+  app.add_option("--eeprom", opt.eeprom_file,
+                 "keep the EEPROM (the firmware's settings) in this file: loaded at start (an "
+                 "absent file is an erased EEPROM) and written whenever the firmware changes it, "
+                 "so settings survive a restart as they survive a board's power cycle");
   std::string profile_path;
   app.add_option("--profile", profile_path,
                  "write a CPU profile of the firmware (share of cycles per function, sampled "

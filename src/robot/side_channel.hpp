@@ -18,6 +18,8 @@
 // Client -> emulator, one command per line, answered "OK <command>" or "ERR <reason>":
 //   query | rate <hz> | mark | press <button> [ms] | release <button> | cut <ms> |
 //   lose <z|j2|j3> <steps> | corrupt <n> [rx|tx] |
+//   endstop <z|j2|j3> <open|closed|ok> (a broken switch or wire reads open or closed whatever
+//   its axis does; ok repairs it) |
 //   cubes (the physical cubes: "CUBES n id:colour:x_m:y_m:z_m ...") |
 //   place <red|green|blue> <x_m> <y_m> [yaw_deg] (an operator puts a cube on the table) |
 //   clear (the operator takes every cube away) |

@@ -71,6 +71,7 @@ struct SimServer::Impl {
       error(out, core::kErrVersion, core::kProtocolVersion);
       return;
     }
+    if (options.on_new_stream) options.on_new_stream();
     put(out, proto::PeerHello{core::kProtocolVersion, kDeviceName, kSoftwareVersion});
   }
   void on(std::string& out, const proto::Ping& m) { put(out, proto::Ack{"PI", m.token}); }
@@ -114,6 +115,7 @@ struct SimServer::Impl {
     put(out, proto::JointApplied{seq, static_cast<std::uint32_t>(applied_us)});
   }
   void on(std::string& out, const proto::SetMode& m) {
+    if (options.on_new_stream) options.on_new_stream();
     world.with_simulation([&](Simulation& s) {
       s.set_mode(m.mode == proto::SimMode::kMirror ? Mode::kMirror : Mode::kSimulate);
     });

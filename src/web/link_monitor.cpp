@@ -36,6 +36,11 @@ void LinkMonitor::set_connected(bool connected) {
   if (!connected) status_.twin_mode.clear();  // the hub that said it has left
 }
 
+void LinkMonitor::restart_sequence() {
+  std::lock_guard lock(mutex_);
+  have_seq_ = false;
+}
+
 void LinkMonitor::set_twin_mode(std::string mode) {
   std::lock_guard lock(mutex_);
   status_.twin_mode = std::move(mode);

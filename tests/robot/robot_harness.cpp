@@ -171,6 +171,16 @@ Robot::~Robot() {
   if (out_fd_ >= 0) ::close(out_fd_);
 }
 
+void Robot::power_off() {
+  if (pid_ > 0) {
+    ::kill(pid_, SIGKILL);
+    int status = 0;
+    ::waitpid(pid_, &status, 0);
+    pid_ = -1;
+  }
+  ok_ = false;
+}
+
 void Robot::send(const std::string& bytes) {
   std::size_t off = 0;
   while (off < bytes.size()) {

@@ -62,6 +62,8 @@ class Robot {
   std::optional<Report> query_state(double timeout_s = 10.0);
   // HM and wait for EV=1=.
   bool home(double timeout_s = 60.0);
+  // Pulls the plug: SIGKILL, no orderly exit (what the emulator keeps must already be kept).
+  void power_off();
 
   // Side channel.
   std::string side(const std::string& command, double timeout_s = 10.0);

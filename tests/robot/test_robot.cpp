@@ -15,92 +15,11 @@
 #include <vector>
 
 #include "robot_harness.hpp"
-#include "scaratwin/config/robot_config.hpp"
-#include "scaratwin/kinematics/motor.hpp"
-#include "scaratwin/trajectory/trajectory.hpp"
 #include "scaratwin/vision/webcam.hpp"
+#include "trajectory_points.hpp"
 
 namespace scaratwin::test {
 namespace {
-
-struct Point {
-  int dt_ms;
-  std::array<std::int32_t, 3> steps;
-  int wrist_cdeg;
-};
-
-// A quintic from the home pose to `goal`, as the hub would load it: 60 samples, absolute motor
-// steps, dt in whole ms.
-std::vector<Point> plan_points(const JointVector& goal, double duration_s) {
-  auto model = load_robot_config_or_default("");
-  EXPECT_TRUE(model.ok());
-  QuinticOptions o;
-  o.duration_s = duration_s;
-  auto traj = plan_quintic(*model, model->home, goal, o);
-  if (!traj.ok()) {
-    ADD_FAILURE() << traj.error().message;
-    return {};
-  }
-  std::vector<Point> pts;
-  long prev_ms = 0;
-  for (std::size_t k = 1; k < traj->samples.size(); ++k) {
-    const auto& s = traj->samples[k];
-    const long t_ms = std::lround(s.t_s * 1000.0);
-    pts.push_back({static_cast<int>(t_ms - prev_ms), joints_to_steps(*model, s.q),
-                   static_cast<int>(std::lround(s.q[3] * 18000.0 / M_PI))});
-    prev_ms = t_ms;
-  }
-  return pts;
-}
-
-std::string tp(int seq, const Point& p) {
-  return "TP=" + std::to_string(seq) + "=" + std::to_string(p.dt_ms) + "=" +
-         std::to_string(p.steps[0]) + "=" + std::to_string(p.steps[1]) + "=" +
-         std::to_string(p.steps[2]) + "=" + std::to_string(p.wrist_cdeg) + "=\n";
-}
-
-// Loads a trajectory with credit-based flow control, as the hub does: the credit is the free
-// queue slots of the latest AK=TP or ST report, minus the points sent since; one TP line is in
-// flight at a time, which keeps within the 64-byte receive window. Fails on any refusal.
-bool load_trajectory(Robot& r, const std::vector<Point>& pts, int* acks = nullptr,
-                     const std::function<void()>& on_progress = {}) {
-  auto tb = r.request("TB=" + std::to_string(pts.size()) + "=\n");
-  if (!tb || tb->rfind("AK=TB=", 0) != 0) {
-    ADD_FAILURE() << "TB refused: " << tb.value_or("timeout");
-    return false;
-  }
-  int credit = std::atoi(tb->c_str() + 6);
-  bool in_flight = false;
-  int ok = 0;
-  std::size_t next = 0;
-  while (ok < static_cast<int>(pts.size())) {
-    if (on_progress) on_progress();
-    if (!in_flight && next < pts.size() && credit > 0) {
-      r.send(tp(static_cast<int>(next), pts[next]));
-      ++next;
-      in_flight = true;
-    }
-    auto l = r.line(30.0, true);
-    if (!l) {
-      ADD_FAILURE() << "no reply while loading point " << ok;
-      return false;
-    }
-    if (auto st = parse_report(*l)) {
-      if (!in_flight) credit = static_cast<int>(st->queue_free());
-    } else if (l->rfind("AK=TP=", 0) == 0) {
-      ++ok;
-      in_flight = false;
-      credit = std::atoi(l->c_str() + 6);
-    } else if (l->rfind("EV=", 0) == 0) {
-      continue;  // underrun or other events while streaming
-    } else {
-      ADD_FAILURE() << "point " << ok << " refused: " << *l;
-      return false;
-    }
-  }
-  if (acks) *acks = ok;
-  return true;
-}
 
 // Jogs J2 from count 0 by `steps` and waits until the count is there and the motor stopped.
 void jog_j2_from_zero(Robot& r, int steps) {
@@ -241,30 +160,29 @@ TEST_F(RobotTest, EveryMalformedPacketGetsAnErrorAndTheFirmwareKeepsWorking) {
       {"XX=\n", "ER=3="},                          // unknown code
       {"SR=1=2=\n", "ER=4=2="},                    // too many fields
       {"TP=1=\n", "ER=4=1="},                      // too few fields
-      {"SR=abc=\n", "ER="},                        // not a number
+      {"SR=abc=\n", "ER=5=0="},                    // not a number (field 0)
       {"SR=99999999999=\n", "ER=5=0="},            // out of i32 range
       {"SR=5000=\n", "ER=11=0="},                  // rate out of range
-      {"sr=1=\n", "ER="},                          // lower-case code
-      {"SR=1\n", "ER="},                           // no delimiter after the last field
-      {"SR==\n", "ER="},                           // empty field
+      {"sr=1=\n", "ER=2=0="},                      // lower-case code (byte 0)
+      {"SR=1\n", "ER=2=4="},                       // no delimiter after the last field (byte 4)
+      {"SR==\n", "ER=5=0="},                       // empty field (field 0)
       {"JG=7=10=\n", "ER=11=0="},                  // no axis 7
       {"CF=99=\n", "ER=11=0="},                    // unknown setting
       {"TP=0=100=1=2=3=4=\n", "ER=10=0="},         // TP without TB
       {"TB=1=\n", "ER=7="},                        // not homed
       {std::string(120, 'A') + "\n", "ER=1=96="},  // line too long
-      {"\x01\x02=\n", "ER=2="},                    // control characters
+      {"\x01\x02=\n", "ER=2=0="},                  // control characters (byte 0)
   };
   for (const auto& [bad, want] : cases) {
     auto reply = robot.request(bad);
     ASSERT_TRUE(reply) << "no reply to " << bad;
-    EXPECT_EQ(reply->rfind(want, 0), 0u) << "reply to '" << bad << "' was " << *reply;
+    EXPECT_EQ(*reply, want) << "reply to '" << bad << "'";
     EXPECT_EQ(robot.request("PI=1=\n").value_or(""), "AK=PI=1=") << "after " << bad;
   }
   // bytes corrupted on the line (emulator fault injection) also get an error reply
   ASSERT_EQ(robot.side("corrupt 2 rx"), "OK corrupt 2 rx");
-  auto reply = robot.request("PI=5=\n");
-  ASSERT_TRUE(reply);
-  EXPECT_EQ(reply->rfind("ER=", 0), 0u) << *reply;
+  // ('P' ^ 0x55 and 'I' ^ 0x55 are control characters: the first bad byte is byte 0)
+  EXPECT_EQ(robot.request("PI=5=\n").value_or("timeout"), "ER=2=0=");
   EXPECT_EQ(robot.request("PI=6=\n").value_or(""), "AK=PI=6=");
 }
 
@@ -322,22 +240,6 @@ void load_and_abandon(Robot& r, const std::vector<Point>& pts, int count) {
     auto ak = r.request(tp(k, pts[static_cast<std::size_t>(k)]));
     ASSERT_TRUE(ak && ak->rfind("AK=TP=", 0) == 0) << "point " << k << ": " << ak.value_or("");
   }
-}
-
-// The robot at rest (two reports 50 ms of emulated time apart agree and the moving flag is
-// clear), its truth at the given steps.
-void expect_at_rest_at(Robot& r, const std::array<std::int32_t, 3>& steps) {
-  std::optional<Report> st;
-  for (int i = 0; i < 400; ++i) {
-    st = r.query_state();
-    ASSERT_TRUE(st);
-    if ((st->flags() & 2) == 0) break;
-  }
-  EXPECT_EQ(st->flags() & 2, 0) << "still moving";
-  const Truth t = r.truth();
-  EXPECT_EQ(t.i("z"), steps[0]);
-  EXPECT_EQ(t.i("j2"), steps[1]);
-  EXPECT_EQ(t.i("j3"), steps[2]);
 }
 
 // A host that gives up on a trajectory (a cut link, a killed or interrupted hub) must never

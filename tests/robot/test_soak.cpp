@@ -1,9 +1,11 @@
-// Soak test (ctest label `soak`): state reports at the default 100 Hz for 60 s of real time,
-// paced to the wall clock, through the pty: no sequence gap, the rate right in the device's
-// time and in the host's wall-clock time.
+// Soak test (ctest label `soak`, run alone): state reports at the default 100 Hz for 60 s of
+// real time, paced to the wall clock, through the pty: no sequence gap and the rate right in
+// the device's time. The rate in the host's wall-clock time depends on how loaded the machine
+// is: it is printed, not judged (bench_robot measures the link's speed).
 #include <gtest/gtest.h>
 
 #include <chrono>
+#include <cstdio>
 
 #include "robot_harness.hpp"
 
@@ -31,7 +33,8 @@ TEST(RobotSoak, ReportsAtOneHundredHertzWithoutAGapForSixtySeconds) {
   ASSERT_GT(reps.size(), 100u);
   const double dev_s = static_cast<std::uint32_t>(reps.back().t_us() - reps.front().t_us()) / 1e6;
   EXPECT_NEAR(static_cast<double>(reps.size() - 1) / dev_s, 100.0, 0.5) << "device time";
-  EXPECT_NEAR(static_cast<double>(reps.size()) / wall_s, 100.0, 3.0) << "wall-clock time";
+  std::printf("%zu reports in %.2f s of device time, %.2f s of wall-clock time (%.1f Hz)\n",
+              reps.size(), dev_s, wall_s, static_cast<double>(reps.size()) / wall_s);
 }
 
 }  // namespace

@@ -214,8 +214,15 @@ TEST_F(SimServerTest, SimulateModeFollowsTargetsAndGrasps) {
   ASSERT_TRUE(client_->send("TJ,1,0,47,0,0,0,\n").ok());
   const auto ja = lines(1);
   ASSERT_EQ(ja[0].rfind("JA,1,", 0), 0u);
-  // d1 0.047 puts the tool at the grasp height over x = 0.067 + 0.187 = 0.254: no cube there
-  std::this_thread::sleep_for(std::chrono::milliseconds(600));
+  // d1 0.047 puts the tool at the grasp height over x = 0.067 + 0.187 = 0.254: no cube there.
+  // Judged after 0.6 s of simulated time (the wall clock only guards against a hang: a loaded
+  // machine slows the simulation, it does not change where it is 0.6 s later)
+  const double applied_s = world_->snapshot().time_s;
+  const auto guard = std::chrono::steady_clock::now() + std::chrono::seconds(60);
+  while (world_->snapshot().time_s < applied_s + 0.6 && std::chrono::steady_clock::now() < guard) {
+    std::this_thread::sleep_for(std::chrono::milliseconds(5));
+  }
+  ASSERT_GE(world_->snapshot().time_s, applied_s + 0.6) << "the simulation did not run";
   EXPECT_NEAR(world_->snapshot().joints[0], 0.047, 1e-3);
   ASSERT_TRUE(client_->send("GR,1,\nGR,0,\n").ok());
   EXPECT_EQ(lines(2), (std::vector<std::string>{"GR,1,-1,", "GR,0,-1,"}));
@@ -281,6 +288,34 @@ TEST(SimServerPhase, HandsTheTwinPhaseOn) {
   EXPECT_EQ((*server)->handle_line("TW,replay,"), "ER,11,0,\n");
   EXPECT_EQ((*server)->handle_line("TW,none,"), "AK,TW,\n");
   EXPECT_EQ(phases, (std::vector<std::string>{"control", "prediction", ""}));
+}
+
+// A hub's hello and a mode switch tell the link figures that a new stream of joint frames
+// begins (its sequence numbers do not continue the last one's); nothing else does, and the
+// hook runs before the frames that follow, in order with them.
+TEST(SimServerStream, HelloAndModeSwitchStartANewStreamOfFrames) {
+  auto m = load_robot_config(SCARATWIN_CONFIG_FILE);
+  ASSERT_TRUE(m.ok());
+  WorldOptions wo;
+  wo.camera = false;
+  auto world = World::create(*m, {}, wo);
+  ASSERT_TRUE(world.ok());
+  std::vector<std::string> events;
+  ServerOptions o;
+  o.port = 0;
+  o.on_new_stream = [&events] { events.emplace_back("new"); };
+  o.on_joint_frame = [&events](const JointFrame& f) { events.push_back(std::to_string(f.seq)); };
+  auto server = SimServer::create(**world, o);
+  ASSERT_TRUE(server.ok());
+  EXPECT_EQ((*server)->handle_line("HI,1,").rfind("HI,1,", 0), 0u);
+  EXPECT_EQ((*server)->handle_line("JD,5,0,80,0,0,0,").rfind("JA,5,", 0), 0u);
+  EXPECT_EQ((*server)->handle_line("PI,1,"), "AK,PI,1,\n");
+  EXPECT_EQ((*server)->handle_line("TW,mirror,"), "AK,TW,\n");
+  EXPECT_EQ((*server)->handle_line("JD,6,0,80,0,0,0,").rfind("JA,6,", 0), 0u);
+  EXPECT_EQ((*server)->handle_line("MD,mirror,"), "AK,MD,\n");
+  EXPECT_EQ((*server)->handle_line("JD,900,0,80,0,0,0,").rfind("JA,900,", 0), 0u);
+  EXPECT_EQ((*server)->handle_line("HI,2,"), "ER,13,1,\n");  // refused: no new stream
+  EXPECT_EQ(events, (std::vector<std::string>{"new", "5", "6", "new", "900"}));
 }
 
 }  // namespace

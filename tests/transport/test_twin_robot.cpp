@@ -22,7 +22,9 @@ namespace scaratwin::transport {
 namespace {
 
 namespace fs = std::filesystem;
-constexpr Duration kWait{5000};
+// How long a reply may take in wall-clock time: a guard against a hang, not a judgement (a
+// loaded machine slows the paced emulator; 5 s ran out at a load average of 16)
+constexpr Duration kWait{30000};
 
 // The emulator as a child process, killed at the end of the test.
 struct Emulator {

@@ -233,6 +233,14 @@ TEST(LinkMonitor, CountsGapsAsLostFramesAndMeasuresLatency) {
   s = m.status(t0 + 301'000);
   EXPECT_EQ(s.lost, 3U);
   EXPECT_TRUE(s.connected);
+  // so does a new stream on the same connection (a hub's hello, a mode switch): the reports
+  // the hub did not forward meanwhile are no loss
+  m.on_joint_frame(1, static_cast<std::uint32_t>(t0 + 310'000), q, t0 + 311'000);
+  m.restart_sequence();
+  m.on_joint_frame(400, static_cast<std::uint32_t>(t0 + 320'000), q, t0 + 321'000);
+  EXPECT_EQ(m.status(t0 + 321'000).lost, 3U);
+  m.on_joint_frame(402, static_cast<std::uint32_t>(t0 + 330'000), q, t0 + 331'000);
+  EXPECT_EQ(m.status(t0 + 331'000).lost, 4U) << "a gap within the new stream is a loss";
   // the window forgets old frames
   s = m.status(t0 + 10'000'000);
   EXPECT_EQ(s.frame_rate_hz, 0.0);

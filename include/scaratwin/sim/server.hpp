@@ -50,6 +50,10 @@ struct ServerOptions {
   // Called on the io thread when the hub says what the twin is doing (TW): "mirror",
   // "control", "prediction", or "" for none (may be empty).
   std::function<void(const std::string&)> on_twin_phase;
+  // Called on the io thread when the joint frames that follow are a new stream, whose
+  // sequence numbers do not continue the last one's: a hub's hello (HI, the first packet of a
+  // connection) or a mode switch (MD) (may be empty).
+  std::function<void()> on_new_stream;
 };
 
 struct ServerCounters {

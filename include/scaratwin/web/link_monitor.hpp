@@ -47,6 +47,9 @@ class LinkMonitor {
   // A hub attached (true) or left (false). A new connection restarts the sequence tracking;
   // a hub that leaves takes the twin mode it set with it.
   void set_connected(bool connected);
+  // The frames that follow are a new stream (a hub's hello, a mode switch): the gap between
+  // the last frame and the next one is no loss.
+  void restart_sequence();
   // What the hub says the twin is doing ("mirror", "control", "prediction"), or "" to let
   // the UI derive it from the simulator mode.
   void set_twin_mode(std::string mode);

@@ -1,0 +1,248 @@
+// The command line's promises (README.md), through the real `scaratwin` executable: bad input
+// exits 2 with a message naming the value; an unreachable target exits 1 and says why; the
+// robot description comes from --config or SCARATWIN_CONFIG; a script with a syntax error
+// moves nothing, judged by the emulator's truth on a robot that starts away from home.
+#include <arpa/inet.h>
+#include <netinet/in.h>
+#include <sys/socket.h>
+#include <unistd.h>
+
+#include <chrono>
+#include <cmath>
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <map>
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include <fmt/format.h>
+#include <gtest/gtest.h>
+
+#include "scaratwin/hub/process.hpp"
+
+namespace scaratwin {
+namespace {
+
+namespace fs = std::filesystem;
+using namespace std::chrono_literals;
+
+const fs::path kBin = SCARATWIN_BIN_DIR;
+
+fs::path fresh_dir(const char* name) {
+  fs::path p = fs::temp_directory_path() / fmt::format("scaratwin-cli-{}-{}", name, getpid());
+  fs::remove_all(p);
+  fs::create_directories(p);
+  return p;
+}
+
+struct Outcome {
+  int status = -1;
+  std::string output;  // stdout and stderr
+};
+
+Outcome run_cli(const std::vector<std::string>& args) {
+  Outcome o;
+  auto p = ChildProcess::start(kBin / "scaratwin", args);
+  if (!p) {
+    ADD_FAILURE() << p.error().message;
+    return o;
+  }
+  o.status = (*p)->wait_exit(60s);
+  o.output = (*p)->output_tail(200);
+  return o;
+}
+
+std::string joined(const std::vector<std::string>& args) {
+  std::string s = "scaratwin";
+  for (const auto& a : args) s += " " + a;
+  return s;
+}
+
+// The first number after `key` in the output (fk --json prints "x_m": 0.254).
+double number_after(const std::string& text, const std::string& key) {
+  const auto at = text.find(key);
+  if (at == std::string::npos) return NAN;
+  const auto num = text.find_first_of("-0123456789", at + key.size());
+  if (num == std::string::npos) return NAN;
+  return std::strtod(text.c_str() + num, nullptr);
+}
+
+TEST(Cli, BadInputExitsTwoNamingTheValue) {
+  const std::vector<std::pair<std::vector<std::string>, std::string>> cases = {
+      {{"fk", "0.12", "abc", "0", "0"}, "abc"},
+      {{"fk", "0.12", "0", "0"}, "received 3"},
+      {{"ik", "0.2", "0.05", "-0.02", "1e999"}, "YAW_DEG = inf"},
+      {{"plan", "--to", "0.1", "30", "45", "10", "--samples", "-3"}, "-3"},
+      {{"plan", "--to", "0.1", "30", "45", "10", "--speed-scale", "1.5"}, "1.5"},
+      {{"plan", "--line", "0.2", "0.05", "nan", "0"}, "Z_M = nan"},
+      {{"fly"}, "fly"},
+      {{"fk", "--config", "/nonexistent/robot.toml", "0.12", "0", "0", "0"},
+       "/nonexistent/robot.toml"},
+  };
+  for (const auto& [args, named] : cases) {
+    const Outcome o = run_cli(args);
+    EXPECT_EQ(o.status, 2) << joined(args) << "\n" << o.output;
+    EXPECT_NE(o.output.find(named), std::string::npos)
+        << joined(args) << ": the message does not name '" << named << "'\n"
+        << o.output;
+  }
+}
+
+TEST(Cli, AnUnreachableTargetExitsOneSayingWhy) {
+  const std::vector<std::pair<std::vector<std::string>, std::string>> cases = {
+      {{"ik", "0.5", "0", "-0.02", "0"}, "beyond the reach"},
+      {{"ik", "0.068", "0", "-0.02", "0"}, "dead zone"},
+      {{"ik", "0.2", "0", "0.1", "0"}, "Z"},
+      {{"ik", "-0.03", "-0.1", "-0.02", "0"}, "limits"},
+  };
+  for (const auto& [args, why] : cases) {
+    const Outcome o = run_cli(args);
+    EXPECT_EQ(o.status, 1) << joined(args) << "\n" << o.output;
+    EXPECT_NE(o.output.find(why), std::string::npos)
+        << joined(args) << ": expected the reason '" << why << "'\n"
+        << o.output;
+  }
+}
+
+// A description whose upper arm is 8 mm longer than the paper's: at the home pose the tool is
+// at x = a1 + a2 + a3 = 0.067 + 0.100 + 0.095 m, computed here by hand, not by the library.
+TEST(Cli, TheRobotDescriptionComesFromConfigOrTheEnvironment) {
+  const fs::path dir = fresh_dir("config");
+  std::string text;
+  {
+    std::ifstream in(SCARATWIN_CONFIG_FILE);
+    std::stringstream ss;
+    ss << in.rdbuf();
+    text = ss.str();
+  }
+  const std::string paper_a2 = "a_m = 0.092";
+  ASSERT_NE(text.find(paper_a2), std::string::npos);
+  text.replace(text.find(paper_a2), paper_a2.size(), "a_m = 0.100");
+  const fs::path longer = dir / "longer.toml";
+  std::ofstream(longer) << text;
+  const double paper_x_mm = (0.067 + 0.092 + 0.095) * 1000.0;
+  const double longer_x_mm = (0.067 + 0.100 + 0.095) * 1000.0;
+
+  const std::vector<std::string> fk = {"fk", "0.12", "0", "0", "0", "--json"};
+  ::unsetenv("SCARATWIN_CONFIG");
+  Outcome o = run_cli(fk);
+  ASSERT_EQ(o.status, 0) << o.output;
+  EXPECT_NEAR(number_after(o.output, "\"x_m\"") * 1000.0, paper_x_mm, 1e-6) << o.output;
+
+  std::vector<std::string> with_config = fk;
+  with_config.insert(with_config.end(), {"--config", longer.string()});
+  o = run_cli(with_config);
+  ASSERT_EQ(o.status, 0) << o.output;
+  EXPECT_NEAR(number_after(o.output, "\"x_m\"") * 1000.0, longer_x_mm, 1e-6) << o.output;
+
+  ::setenv("SCARATWIN_CONFIG", longer.c_str(), 1);
+  o = run_cli(fk);
+  EXPECT_EQ(o.status, 0) << o.output;
+  EXPECT_NEAR(number_after(o.output, "\"x_m\"") * 1000.0, longer_x_mm, 1e-6) << o.output;
+  // --config wins over the environment
+  std::vector<std::string> paper = fk;
+  paper.insert(paper.end(), {"--config", SCARATWIN_CONFIG_FILE});
+  o = run_cli(paper);
+  EXPECT_EQ(o.status, 0) << o.output;
+  EXPECT_NEAR(number_after(o.output, "\"x_m\"") * 1000.0, paper_x_mm, 1e-6) << o.output;
+  // a description the environment names but that does not exist is bad configuration
+  ::setenv("SCARATWIN_CONFIG", (dir / "missing.toml").c_str(), 1);
+  o = run_cli(fk);
+  EXPECT_EQ(o.status, 2) << o.output;
+  EXPECT_NE(o.output.find((dir / "missing.toml").string()), std::string::npos) << o.output;
+  ::unsetenv("SCARATWIN_CONFIG");
+  // a key the loader does not know is named
+  std::ofstream(dir / "typo.toml") << text << "\n[limits]\nj5_deg = [0.0, 1.0]\n";
+  std::vector<std::string> typo = fk;
+  typo.insert(typo.end(), {"--config", (dir / "typo.toml").string()});
+  o = run_cli(typo);
+  EXPECT_EQ(o.status, 2) << o.output;
+  fs::remove_all(dir);
+}
+
+// One truth sample of the emulator's side channel, as key=value pairs.
+std::map<std::string, std::string> truth(int side_port) {
+  std::map<std::string, std::string> t;
+  const int fd = ::socket(AF_INET, SOCK_STREAM, 0);
+  sockaddr_in addr{};
+  addr.sin_family = AF_INET;
+  addr.sin_port = htons(static_cast<std::uint16_t>(side_port));
+  addr.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
+  if (::connect(fd, reinterpret_cast<sockaddr*>(&addr), sizeof addr) != 0) {
+    ::close(fd);
+    return t;
+  }
+  const std::string cmd = "rate 0\nquery\n";
+  ::send(fd, cmd.data(), cmd.size(), MSG_NOSIGNAL);
+  std::string buf;
+  char tmp[4096];
+  for (;;) {
+    const auto at = buf.find("\nTR ");
+    const auto start = buf.rfind("TR ", 0) == 0 ? 0 : (at == std::string::npos ? at : at + 1);
+    if (start != std::string::npos && buf.find('\n', start) != std::string::npos) {
+      std::istringstream in(buf.substr(start, buf.find('\n', start) - start));
+      std::string tok;
+      while (in >> tok) {
+        const auto eq = tok.find('=');
+        if (eq != std::string::npos) t[tok.substr(0, eq)] = tok.substr(eq + 1);
+      }
+      break;
+    }
+    const ssize_t n = ::recv(fd, tmp, sizeof tmp, 0);
+    if (n <= 0) break;
+    buf.append(tmp, static_cast<std::size_t>(n));
+  }
+  ::close(fd);
+  return t;
+}
+
+// A script is parsed whole before anything moves: a syntax error on its last line leaves the
+// robot where it was. The robot starts away from home (so "still at home" would prove
+// nothing) and the emulator counts every STEP pulse: there must be none.
+TEST(Cli, AScriptWithASyntaxErrorOnItsLastLineMovesNothing) {
+  const fs::path dir = fresh_dir("script");
+  auto robot = ChildProcess::start(kBin / "scaratwin-robot",
+                                   {"--plant", "ideal", "--pty-link", (dir / "robot.pty").string(),
+                                    "--start-steps", "20000,-300,500"},
+                                   dir / "robot.log");
+  ASSERT_TRUE(robot) << robot.error().message;
+  auto sim = ChildProcess::start(
+      kBin / "scaratwin-sim", {"--port", "0", "--http-port", "0", "--no-camera"}, dir / "sim.log");
+  ASSERT_TRUE(sim) << sim.error().message;
+  auto side = (*robot)->wait_for_line("side channel: ", 60s);
+  ASSERT_TRUE(side) << side.error().message;
+  const int side_port = std::stoi(side->substr(side->rfind(':') + 1));
+  auto listening = (*sim)->wait_for_line("listening on", 60s);
+  ASSERT_TRUE(listening) << listening.error().message;
+  const size_t paren = listening->find(" (");
+  const size_t colon = listening->rfind(':', paren);
+  const std::string sim_port = listening->substr(colon + 1, paren - colon - 1);
+  {
+    std::ofstream s(dir / "bad.txt");
+    s << "# every line but the last is a valid statement\n"
+         "home\n"
+         "move 0.18 0.05 -0.02\n"
+         "grip\n"
+         "movej 0.05 -20 30\n";  // four joints needed
+  }
+  const Outcome o =
+      run_cli({"run", (dir / "bad.txt").string(), "--serial", (dir / "robot.pty").string(), "--sim",
+               "127.0.0.1:" + sim_port, "--no-db"});
+  EXPECT_EQ(o.status, 2) << o.output;
+  EXPECT_NE(o.output.find("bad.txt:5"), std::string::npos) << "names the line\n" << o.output;
+  const auto t = truth(side_port);
+  ASSERT_FALSE(t.empty()) << "no truth from the emulator";
+  EXPECT_EQ(t.at("steps_z"), "0");
+  EXPECT_EQ(t.at("steps_j2"), "0");
+  EXPECT_EQ(t.at("steps_j3"), "0");
+  EXPECT_EQ(t.at("z"), "20000");
+  EXPECT_EQ(t.at("j2"), "-300");
+  EXPECT_EQ(t.at("j3"), "500");
+  EXPECT_EQ(t.at("grip_cdeg"), "0") << "the gripper still open";
+  fs::remove_all(dir);
+}
+
+}  // namespace
+}  // namespace scaratwin
