@@ -56,7 +56,7 @@ struct DemoArgs {
   double robot_speed = 1.0;
   unsigned seed = 7;
   double mirror_s = 6.0;
-  bool no_calibrate = false;
+  bool calibrate = false;
   long long as_built_seed = -1;  // the emulated robot's build (-1: the description's)
   // set by run_demo
   std::string base_config;
@@ -136,7 +136,7 @@ Result<DemoOutcome> run_phases(Hub& hub, TwinDb& db, const DemoArgs& a, std::int
 
   // calibration: the twin measures the robot it is connected to and takes the calibrated
   // description for everything that follows
-  const bool calibrating = !a.no_calibrate && inst.side && inst.truth && inst.camera;
+  const bool calibrating = a.calibrate && inst.side && inst.truth && inst.camera;
   if (calibrating) {
     fmt::print("==> [1+] calibration: the twin measures the robot as built and learns it\n");
     auto run = hub.begin_run("calibration", "endstops, pattern, markers, touch-offs", demo);
@@ -619,8 +619,9 @@ void add_demo_command(CLI::App& app, CommonOptions& common, Runner& run) {
                   "emulated robot: emulated seconds per wall second (1 = real time)")
       ->capture_default_str();
   cmd->add_option("--seed", a->seed, "seed of the cube layout")->capture_default_str();
-  cmd->add_flag("--no-calibrate", a->no_calibrate,
-                "skip the calibration (the twin keeps the description as it is)");
+  cmd->add_flag("--calibrate", a->calibrate,
+                "calibrate after homing (emulated robot as built): the twin measures the robot "
+                "and runs on the calibrated description (docs/calibration.md)");
   cmd->add_option("--as-built-seed", a->as_built_seed,
                   "emulated robot: the seed of its build (default: the description's)")
       ->check(CLI::Range(0LL, 2147483647LL));
