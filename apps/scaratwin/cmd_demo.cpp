@@ -340,7 +340,18 @@ Result<DemoOutcome> run_phases(Hub& hub, TwinDb& db, const DemoArgs& a, std::int
         }
       }
       where.clear();
+      std::array<bool, kNumColors> have{};
       for (const CubeDetection& d : found) {
+        // the operator put one cube of each colour: the largest blob of a colour is its cube
+        // (detections come sorted by colour, then by area); a smaller one is a piece of it
+        // (a side face the picture shows apart from the top) and is said, not spawned
+        if (have[static_cast<int>(d.color)]) {
+          fmt::print("    robot's webcam: a smaller {} blob at ({:.1f}, {:.1f}) mm, {} px, left "
+                     "out (one cube of each colour is on the table)\n",
+                     color_name(d.color), m_to_mm(d.x_m), m_to_mm(d.y_m), d.area_px);
+          continue;
+        }
+        have[static_cast<int>(d.color)] = true;
         where.push_back(SortItem{d.color, d.x_m, d.y_m, 0.0});
         fmt::print("    robot's webcam: {} cube at ({:.1f}, {:.1f}) mm\n", color_name(d.color),
                    m_to_mm(d.x_m), m_to_mm(d.y_m));
