@@ -10,10 +10,12 @@
 #include <numbers>
 #include <thread>
 
+#include <fmt/format.h>
 #include <Eigen/Dense>
 #include <Eigen/Geometry>
-#include <fmt/format.h>
 
+#include "scaratwin/core/units.hpp"
+#include "scaratwin/hub/report.hpp"
 #include "scaratwin/kinematics/kinematics.hpp"
 #include "scaratwin/plant/plant.hpp"
 #include "scaratwin/trajectory/trajectory.hpp"
@@ -153,20 +155,14 @@ Result<CalibrationRun> calibrate_and_write(Hub& hub, NetCamera& camera, Calibrat
 std::vector<ToolPose> test_poses(const RobotModel& model, int count, std::uint64_t seed) {
   std::vector<ToolPose> out;
   std::uint64_t s = seed * 0x9E3779B97F4A7C15ULL + 12345;
-  auto uni = [&s](double lo, double hi) {
-    std::uint64_t z = (s += 0x9E3779B97F4A7C15ULL);
-    z = (z ^ (z >> 30)) * 0xBF58476D1CE4E5B9ULL;
-    z = (z ^ (z >> 27)) * 0x94D049BB133111EBULL;
-    z ^= z >> 31;
-    return lo + (hi - lo) * static_cast<double>(z >> 11) * 0x1.0p-53;
-  };
+  auto uni = [&s](double lo, double hi) { return seeded_uniform(s, lo, hi); };
   const double table = model.scene.table_z_m;
   int tries = 0;
   while (static_cast<int>(out.size()) < count && tries++ < 100000) {
     // around the J2 axis, within reach; the jaws clear of the trays' walls
     const double r = uni(0.09, 0.175), a = uni(-1.3, 1.3);
-    ToolPose p{model.dh[0].a_m + r * std::cos(a), r * std::sin(a),
-               uni(table + 0.035, table + 0.08), uni(20 * kDeg, 160 * kDeg)};
+    ToolPose p{model.dh[0].a_m + r * std::cos(a), r * std::sin(a), uni(table + 0.035, table + 0.08),
+               uni(20 * kDeg, 160 * kDeg)};
     auto q = inverse(model, p, model.home);
     if (!q) continue;
     if (first_joint_outside_limits(model, *q) >= 0) continue;
@@ -190,9 +186,58 @@ Result<std::vector<double>> measure_test_poses(Hub& hub, EmulatorSide& side,
     auto truth = side.query();
     if (!truth) return truth.error();
     const ToolPose v = forward(hub.model(), ps->q);
-    out.push_back(distance({v.x_m, v.y_m, v.z_m}, {truth->tool[0], truth->tool[1], truth->tool[2]}));
+    out.push_back(
+        distance({v.x_m, v.y_m, v.z_m}, {truth->tool[0], truth->tool[1], truth->tool[2]}));
   }
   return out;
+}
+
+Result<CalibrationFigures> calibration_phase(Hub& hub, EmulatorSide& side, NetCamera& camera,
+                                             const std::filesystem::path& base_config,
+                                             const std::filesystem::path& overlay,
+                                             std::uint64_t test_seed) {
+  const RobotModel base = hub.model();
+  const std::vector<ToolPose> poses = test_poses(base, 12, test_seed);
+  fmt::print("    before: the robot at {} test poses, the description as it is\n", poses.size());
+  auto before = measure_test_poses(hub, side, poses);
+  if (!before) return before.error();
+  EmulatedOperator op(side);
+  CalibrationOptions co;
+  co.progress = [](const std::string& line) {
+    fmt::print("    {}\n", line);
+    std::fflush(stdout);
+  };
+  auto cal = calibrate_and_write(hub, camera, op, base_config, overlay, co);
+  if (!cal) return cal.error();
+  hub.set_model(cal->calibrated);
+  fmt::print("    after: the same test poses, the calibrated description\n");
+  auto after = measure_test_poses(hub, side, poses);
+  if (!after) return after.error();
+  CalibrationFigures cf;
+  cf.before = error_stats(*before);
+  cf.after = error_stats(*after);
+  cf.test_poses = static_cast<int>(poses.size());
+  cf.fit_poses = cal->fit.marker_views + cal->fit.touch_offs;
+  cf.robot_s = cal->robot_s;
+  cf.fit_s = cal->fit.fit_seconds;
+  cf.pixel_rms = cal->fit.pixel_rms;
+  cf.overlay = overlay.string();
+  const auto truth = true_parameters(base);
+  for (int i = 0; i < calib::kParamCount; ++i) {
+    const auto& info = calib::param_info(i);
+    cf.parameters.push_back({std::string(info.key), cal->fit.value[i] / info.to_si,
+                             cal->fit.std_error[i] / info.to_si, truth[i] / info.to_si});
+  }
+  fmt::print(
+      "    virtual -> true tool at {} test poses: before mean {:.2f} p95 {:.2f} max {:.2f} mm; "
+      "after mean {:.2f} p95 {:.2f} max {:.2f} mm\n",
+      poses.size(), m_to_mm(cf.before.mean_m), m_to_mm(cf.before.p95_m), m_to_mm(cf.before.max_m),
+      m_to_mm(cf.after.mean_m), m_to_mm(cf.after.p95_m), m_to_mm(cf.after.max_m));
+  hub.record_metric(metric::kCalibBeforeMeanMm, m_to_mm(cf.before.mean_m), "mm");
+  hub.record_metric(metric::kCalibBeforeMaxMm, m_to_mm(cf.before.max_m), "mm");
+  hub.record_metric(metric::kCalibAfterMeanMm, m_to_mm(cf.after.mean_m), "mm");
+  hub.record_metric(metric::kCalibAfterMaxMm, m_to_mm(cf.after.max_m), "mm");
+  return cf;
 }
 
 std::array<double, calib::kParamCount> true_parameters(const RobotModel& description) {
@@ -221,7 +266,7 @@ std::array<double, calib::kParamCount> true_parameters(const RobotModel& descrip
   const Eigen::AngleAxisd aa(rel);
   const Eigen::Vector3d rv = aa.angle() * aa.axis();
   for (int i = 0; i < 3; ++i) t[calib::kRobotParams + 3 + i] = rv[i];
-  set(Param::kCamFocal, 0.0);  // the plant's camera has the description's field of view
+  set(Param::kCamFocal, 0.0);        // the plant's camera has the description's field of view
   set(Param::kCamK1, std::nan(""));  // its lens is a different model: no single true k1
   return t;
 }

@@ -10,6 +10,7 @@
 #include <string>
 #include <vector>
 
+#include "demo_figures.hpp"
 #include "emulator_side.hpp"
 #include "scaratwin/hub/analysis.hpp"
 #include "scaratwin/hub/calibrate.hpp"
@@ -57,5 +58,13 @@ Result<std::vector<double>> measure_test_poses(Hub& hub, EmulatorSide& side,
 // The true as-built values of the fit's parameters for the emulated robot built from
 // `description` (report only: the truth of the build, never given to the twin).
 std::array<double, calib::kParamCount> true_parameters(const RobotModel& description);
+
+// The demo's calibration step with the emulated robot: the test poses as the description is,
+// the routine and its overlay (written to `overlay`), the hub switched to the calibrated
+// description, the same test poses again; the figures and their metrics in the current run.
+Result<CalibrationFigures> calibration_phase(Hub& hub, EmulatorSide& side, NetCamera& camera,
+                                             const std::filesystem::path& base_config,
+                                             const std::filesystem::path& overlay,
+                                             std::uint64_t test_seed);
 
 }  // namespace scaratwin::cli

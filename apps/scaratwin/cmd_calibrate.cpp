@@ -42,8 +42,8 @@ int run_calibrate(const CommonOptions& common, const CalibrateArgs& a) {
     return kExitUsage;
   }
   namespace fs = std::filesystem;
-  const fs::path base = common.config_path.empty() ? default_robot_config_path()
-                                                   : fs::path(common.config_path);
+  const fs::path base =
+      common.config_path.empty() ? default_robot_config_path() : fs::path(common.config_path);
   const fs::path overlay = a.output.empty() ? default_overlay_path(base) : fs::path(a.output);
   std::error_code ec;
   fs::create_directories(a.out, ec);
@@ -69,8 +69,9 @@ int run_calibrate(const CommonOptions& common, const CalibrateArgs& a) {
     return kExitFailure;
   }
   if (!rig->webcam) {
-    std::fprintf(stderr, "scaratwin calibrate: the robot has no webcam (an emulated robot "
-                         "needs --plant as-built)\n");
+    std::fprintf(stderr,
+                 "scaratwin calibrate: the robot has no webcam (an emulated robot "
+                 "needs --plant as-built)\n");
     rig->stop();
     return kExitFailure;
   }
@@ -101,19 +102,23 @@ int run_calibrate(const CommonOptions& common, const CalibrateArgs& a) {
   std::FILE* log = nullptr;
   if (rig->side) {
     log = std::fopen((fs::path(a.out) / "calibration-truth.csv").c_str(), "w");
-    if (log) std::fputs("kind,q_fw0,q_fw1,q_fw2,q_fw3,dir1,dir2,true0,true1,true2,true3,axis_col,axis_row,flag_col,flag_row,tool_x,tool_y,tool_z\n", log);
+    if (log)
+      std::fputs(
+          "kind,q_fw0,q_fw1,q_fw2,q_fw3,dir1,dir2,true0,true1,true2,true3,axis_col,axis_row,flag_"
+          "col,flag_row,tool_x,tool_y,tool_z\n",
+          log);
     co.on_measurement = [&](const calib::MarkerView* v, const calib::TouchOff* t) {
       auto tr = rig->side->query();
       if (!log || !tr) return;
       const JointVector& q = v ? v->q_fw : t->q_fw;
       const calib::Directions& d = v ? v->dir : t->dir;
-      std::fprintf(log, "%s,%.9g,%.9g,%.9g,%.9g,%d,%d,%.9g,%.9g,%.9g,%.9g,%.4f,%.4f,%.4f,%.4f,%.9g,%.9g,%.9g\n",
-                   v ? "marker" : "touch", q[0], q[1], q[2], q[3], d[1], d[2], tr->q[0], tr->q[1],
-                   tr->q[2], tr->q[3], v && v->axis_px ? (*v->axis_px)[0] : -1.0,
-                   v && v->axis_px ? (*v->axis_px)[1] : -1.0,
-                   v && v->flag_px ? (*v->flag_px)[0] : -1.0,
-                   v && v->flag_px ? (*v->flag_px)[1] : -1.0, tr->tool[0], tr->tool[1],
-                   tr->tool[2]);
+      std::fprintf(
+          log,
+          "%s,%.9g,%.9g,%.9g,%.9g,%d,%d,%.9g,%.9g,%.9g,%.9g,%.4f,%.4f,%.4f,%.4f,%.9g,%.9g,%.9g\n",
+          v ? "marker" : "touch", q[0], q[1], q[2], q[3], d[1], d[2], tr->q[0], tr->q[1], tr->q[2],
+          tr->q[3], v && v->axis_px ? (*v->axis_px)[0] : -1.0,
+          v && v->axis_px ? (*v->axis_px)[1] : -1.0, v && v->flag_px ? (*v->flag_px)[0] : -1.0,
+          v && v->flag_px ? (*v->flag_px)[1] : -1.0, tr->tool[0], tr->tool[1], tr->tool[2]);
       std::fflush(log);
     };
   }
@@ -142,8 +147,9 @@ void add_calibrate_command(CLI::App& app, CommonOptions& common, Runner& run) {
   cmd->add_option("--output", a->output,
                   "the overlay to write (default: <base description>.calibrated.toml beside it)");
   cmd->add_option("--out", a->out, "folder for the logs")->capture_default_str();
-  cmd->add_option("--poses", a->poses, "marker poses")->capture_default_str()->check(
-      CLI::Range(12, 500));
+  cmd->add_option("--poses", a->poses, "marker poses")
+      ->capture_default_str()
+      ->check(CLI::Range(12, 500));
   cmd->add_option("--seed", a->seed, "seed of the marker poses")->capture_default_str();
   cmd->add_option("--as-built-seed", a->as_built_seed,
                   "emulated robot: the seed of its build (default: the description's)")

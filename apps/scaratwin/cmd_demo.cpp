@@ -30,9 +30,9 @@
 #include "calibrate_step.hpp"
 #include "commands.hpp"
 #include "demo_figures.hpp"
-#include "rig.hpp"
 #include "demo_ticker.hpp"
 #include "emulator_side.hpp"
+#include "rig.hpp"
 #include "scaratwin/config/robot_config.hpp"
 #include "scaratwin/core/units.hpp"
 #include "scaratwin/hub/analysis.hpp"
@@ -142,54 +142,11 @@ Result<DemoOutcome> run_phases(Hub& hub, TwinDb& db, const DemoArgs& a, std::int
     auto run = hub.begin_run("calibration", "endstops, pattern, markers, touch-offs", demo);
     if (!run) return run.error();
     Ticker t(hub, "calibrate");
-    const RobotModel base = model;
-    const std::vector<ToolPose> poses = test_poses(base, 12, a.seed + 1000);
-    fmt::print("    before: the robot at {} test poses, the description as it is\n", poses.size());
-    auto before = measure_test_poses(hub, *inst.side, poses);
-    if (!before) return before.error();
-    EmulatedOperator op(*inst.side);
-    CalibrationOptions co;
-    co.progress = [](const std::string& line) {
-      fmt::print("    {}\n", line);
-      std::fflush(stdout);
-    };
-    const std::filesystem::path overlay = a.out_dir / "scara.calibrated.toml";
-    auto cal = calibrate_and_write(hub, *inst.camera, op, a.base_config, overlay, co);
-    if (!cal) {
-      (void)hub.end_run(false);
-      return cal.error();
-    }
-    hub.set_model(cal->calibrated);
-    fmt::print("    after: the same test poses, the calibrated description\n");
-    auto after = measure_test_poses(hub, *inst.side, poses);
-    if (!after) return after.error();
-    CalibrationFigures cf;
-    cf.before = error_stats(*before);
-    cf.after = error_stats(*after);
-    cf.test_poses = static_cast<int>(poses.size());
-    cf.fit_poses = cal->fit.marker_views + cal->fit.touch_offs;
-    cf.robot_s = cal->robot_s;
-    cf.fit_s = cal->fit.fit_seconds;
-    cf.pixel_rms = cal->fit.pixel_rms;
-    cf.overlay = overlay.string();
-    const auto truth = true_parameters(base);
-    for (int i = 0; i < calib::kParamCount; ++i) {
-      const auto& info = calib::param_info(i);
-      cf.parameters.push_back({std::string(info.key), cal->fit.value[i] / info.to_si,
-                               cal->fit.std_error[i] / info.to_si, truth[i] / info.to_si});
-    }
-    fmt::print(
-        "    virtual -> true tool at {} test poses: before mean {:.2f} p95 {:.2f} max {:.2f} mm; "
-        "after mean {:.2f} p95 {:.2f} max {:.2f} mm\n",
-        poses.size(), m_to_mm(cf.before.mean_m), m_to_mm(cf.before.p95_m),
-        m_to_mm(cf.before.max_m), m_to_mm(cf.after.mean_m), m_to_mm(cf.after.p95_m),
-        m_to_mm(cf.after.max_m));
-    hub.record_metric(metric::kCalibBeforeMeanMm, m_to_mm(cf.before.mean_m), "mm");
-    hub.record_metric(metric::kCalibBeforeMaxMm, m_to_mm(cf.before.max_m), "mm");
-    hub.record_metric(metric::kCalibAfterMeanMm, m_to_mm(cf.after.mean_m), "mm");
-    hub.record_metric(metric::kCalibAfterMaxMm, m_to_mm(cf.after.max_m), "mm");
-    out.calibration = std::move(cf);
-    (void)hub.end_run(true);
+    auto cf = calibration_phase(hub, *inst.side, *inst.camera, a.base_config,
+                                a.out_dir / "scara.calibrated.toml", a.seed + 1000);
+    (void)hub.end_run(cf.ok());
+    if (!cf) return cf.error();
+    out.calibration = std::move(*cf);
   }
 
   // 2. mirror: the robot is moved by hand (its jog buttons; on a real board, which we cannot
@@ -346,9 +303,10 @@ Result<DemoOutcome> run_phases(Hub& hub, TwinDb& db, const DemoArgs& a, std::int
         // (detections come sorted by colour, then by area); a smaller one is a piece of it
         // (a side face the picture shows apart from the top) and is said, not spawned
         if (have[static_cast<int>(d.color)]) {
-          fmt::print("    robot's webcam: a smaller {} blob at ({:.1f}, {:.1f}) mm, {} px, left "
-                     "out (one cube of each colour is on the table)\n",
-                     color_name(d.color), m_to_mm(d.x_m), m_to_mm(d.y_m), d.area_px);
+          fmt::print(
+              "    robot's webcam: a smaller {} blob at ({:.1f}, {:.1f}) mm, {} px, left "
+              "out (one cube of each colour is on the table)\n",
+              color_name(d.color), m_to_mm(d.x_m), m_to_mm(d.y_m), d.area_px);
           continue;
         }
         have[static_cast<int>(d.color)] = true;

@@ -5,8 +5,8 @@
 // (128 bytes, twice the host's 64-byte window). A host that ignores the window overruns the
 // ring: the line that finds it full is dropped whole (the rest of it up to its '\n' too), and
 // so is every line after it until the reader has caught up with the place of the loss; the
-// reader learns how many lines were lost there, so that their replies can take their place. Writes never block: the caller asks for room first, so a slow host cannot
-// stall the control loop.
+// reader learns how many lines were lost there, so that their replies can take their place. Writes
+// never block: the caller asks for room first, so a slow host cannot stall the control loop.
 #pragma once
 
 #include <stdint.h>

@@ -5,9 +5,9 @@
 #include <limits>
 #include <numbers>
 
+#include <fmt/format.h>
 #include <Eigen/Dense>
 #include <Eigen/SVD>
-#include <fmt/format.h>
 #include <unsupported/Eigen/NonLinearOptimization>
 
 #include "scaratwin/kinematics/kinematics.hpp"
@@ -29,7 +29,8 @@ const std::array<ParamInfo, kParamCount> kParams{{
     {"j2_zero_deg", kDeg, 1.0 * kDeg, "marker views in both elbow configurations"},
     {"j3_zero_deg", kDeg, 1.0 * kDeg, "marker views in both elbow configurations"},
     {"wrist_offset_deg", kDeg, 3.0 * kDeg, "views of the flag marker"},
-    {"wrist_gain_percent", kPercent, 3.0 * kPercent, "views of the flag marker at several wrist angles"},
+    {"wrist_gain_percent", kPercent, 3.0 * kPercent,
+     "views of the flag marker at several wrist angles"},
     {"jaw_offset_mm", kMm, 0.5 * kMm, "touch-offs at two or more wrist angles"},
     {"j2_backlash_deg", kDeg, 0.3 * kDeg, "J2 reaching poses from both sides"},
     {"j3_backlash_deg", kDeg, 0.3 * kDeg, "J3 reaching poses from both sides"},
@@ -152,15 +153,16 @@ struct Functor {
 };
 
 int sign_count(const std::vector<MarkerView>& v, int joint, int s) {
-  return static_cast<int>(
-      std::count_if(v.begin(), v.end(), [&](const MarkerView& m) { return m.dir[joint] == s && m.axis_px; }));
+  return static_cast<int>(std::count_if(
+      v.begin(), v.end(), [&](const MarkerView& m) { return m.dir[joint] == s && m.axis_px; }));
 }
 
 }  // namespace
 
 const ParamInfo& param_info(Param p) { return kParams[static_cast<int>(p)]; }
 
-JointVector true_joints(const RobotModel& calibrated, const JointVector& q_fw, const Directions& dir) {
+JointVector true_joints(const RobotModel& calibrated, const JointVector& q_fw,
+                        const Directions& dir) {
   JointVector q = firmware_to_joints(calibrated, q_fw);
   const JointVector s = backlash_shift(calibrated, {dir[0], dir[1], dir[2]});
   for (int i = 0; i < kNumJoints; ++i) q[i] += s[i];
@@ -308,13 +310,13 @@ Result<Fit> fit(const RobotModel& base, const CameraPrior& camera, const Measure
   out.marker_rms_px = mark_n > 0 ? std::sqrt(mark2 / mark_n) : 0.0;
   out.touch_rms_m = out.touch_offs > 0 ? std::sqrt(touch2 / out.touch_offs) : 0.0;
   if (out.pixel_rms > o.max_pixel_rms || out.touch_rms_m > o.max_touch_rms_m) {
-    return Error{1, fmt::format(
-                        "calibration: the measurements do not fit one robot (residual {:.2f} px, "
-                        "limit {:.2f} px; touch-offs {:.2f} mm, limit {:.2f} mm): a belt may "
-                        "have slipped or steps been lost during the routine, or a marker been "
-                        "mistaken; check the belts and calibrate again (no overlay written)",
-                        out.pixel_rms, o.max_pixel_rms, out.touch_rms_m * 1e3,
-                        o.max_touch_rms_m * 1e3)};
+    return Error{
+        1, fmt::format("calibration: the measurements do not fit one robot (residual {:.2f} px, "
+                       "limit {:.2f} px; touch-offs {:.2f} mm, limit {:.2f} mm): a belt may "
+                       "have slipped or steps been lost during the routine, or a marker been "
+                       "mistaken; check the belts and calibrate again (no overlay written)",
+                       out.pixel_rms, o.max_pixel_rms, out.touch_rms_m * 1e3,
+                       o.max_touch_rms_m * 1e3)};
   }
 
   // standard errors: (J^T J)^-1 scaled by the residual variance per degree of freedom
@@ -326,11 +328,11 @@ Result<Fit> fit(const RobotModel& base, const CameraPrior& camera, const Measure
     out.value[i] = t[i];
     out.std_error[i] = std::sqrt(std::max(cov(i, i), 0.0)) * kParams[i].scale_si;
     if (out.std_error[i] > o.max_normalised_error * kParams[i].scale_si) {
-      return Error{1, fmt::format("calibration: {} is poorly determined (std error {:.3g} {}); "
-                                  "it needs more {}",
-                                  kParams[i].key, out.std_error[i] / kParams[i].to_si,
-                                  kParams[i].key.substr(kParams[i].key.rfind('_') + 1),
-                                  kParams[i].needs)};
+      return Error{
+          1, fmt::format("calibration: {} is poorly determined (std error {:.3g} {}); "
+                         "it needs more {}",
+                         kParams[i].key, out.std_error[i] / kParams[i].to_si,
+                         kParams[i].key.substr(kParams[i].key.rfind('_') + 1), kParams[i].needs)};
     }
   }
   out.camera = camera_for(camera.camera, t);

@@ -19,15 +19,6 @@ namespace {
 
 constexpr double kDeg = std::numbers::pi / 180.0;
 
-// splitmix64 (the poses must be the same on every machine)
-double uniform(std::uint64_t& s, double lo, double hi) {
-  std::uint64_t z = (s += 0x9E3779B97F4A7C15ULL);
-  z = (z ^ (z >> 30)) * 0xBF58476D1CE4E5B9ULL;
-  z = (z ^ (z >> 27)) * 0x94D049BB133111EBULL;
-  z ^= z >> 31;
-  return lo + (hi - lo) * static_cast<double>(z >> 11) * 0x1.0p-53;
-}
-
 void say(const CalibrationOptions& o, const std::string& line) {
   if (o.progress) o.progress(line);
 }
@@ -65,11 +56,11 @@ Status move_to(Hub& hub, const JointVector& target) {
 MotionDirections sides(std::uint64_t seed, std::size_t i) {
   std::uint64_t s = seed * 0x9E3779B97F4A7C15ULL + 77 * i + 1;
   MotionDirections d{};
-  d[0] = uniform(s, 0.0, 1.0) < 0.5 ? -1 : 1;
+  d[0] = seeded_uniform(s, 0.0, 1.0) < 0.5 ? -1 : 1;
   // J2 and J3 from the same side: J3's last motion moves the upper arm across its own dead
   // band (seen in the truth: J2 rested on the flank J3's direction chose), so only the same
   // side for both leaves each joint where its own direction says
-  d[1] = d[2] = uniform(s, 0.0, 1.0) < 0.5 ? -1 : 1;
+  d[1] = d[2] = seeded_uniform(s, 0.0, 1.0) < 0.5 ? -1 : 1;
   return d;
 }
 
@@ -104,6 +95,14 @@ Status approach(Hub& hub, const JointVector& target, const MotionDirections& dir
   return Ok{};
 }
 
+double seeded_uniform(std::uint64_t& s, double lo, double hi) {
+  std::uint64_t z = (s += 0x9E3779B97F4A7C15ULL);
+  z = (z ^ (z >> 30)) * 0xBF58476D1CE4E5B9ULL;
+  z = (z ^ (z >> 27)) * 0x94D049BB133111EBULL;
+  z ^= z >> 31;
+  return lo + (hi - lo) * static_cast<double>(z >> 11) * 0x1.0p-53;
+}
+
 bool is_calibrated(const RobotModel& m) {
   const JointCalibration& c = m.calibration;
   return m.webcam.valid || c.z_offset_m != 0.0 || c.z_scale != 0.0 || c.j2_zero_rad != 0.0 ||
@@ -129,12 +128,12 @@ std::vector<JointVector> marker_poses(const RobotModel& model, int count, std::u
     const bool elbow_up = out.size() % 2 == 0;
     JointVector q;
     // high enough that the jaws clear the trays; the joints a margin inside their limits
-    q[0] = uniform(s, std::max(lim[0].min, 0.075), lim[0].max - 0.002);
-    q[1] = uniform(s, std::max(lim[1].min + 15 * kDeg, -95 * kDeg),
-                   std::min(lim[1].max - 15 * kDeg, 95 * kDeg));
-    q[2] = elbow_up ? uniform(s, 30 * kDeg, std::min(lim[2].max - 15 * kDeg, 140 * kDeg))
-                    : uniform(s, std::max(lim[2].min + 8 * kDeg, -140 * kDeg), -25 * kDeg);
-    q[3] = uniform(s, std::max(lim[3].min, 10 * kDeg), std::min(lim[3].max, 170 * kDeg));
+    q[0] = seeded_uniform(s, std::max(lim[0].min, 0.075), lim[0].max - 0.002);
+    q[1] = seeded_uniform(s, std::max(lim[1].min + 15 * kDeg, -95 * kDeg),
+                          std::min(lim[1].max - 15 * kDeg, 95 * kDeg));
+    q[2] = elbow_up ? seeded_uniform(s, 30 * kDeg, std::min(lim[2].max - 15 * kDeg, 140 * kDeg))
+                    : seeded_uniform(s, std::max(lim[2].min + 8 * kDeg, -140 * kDeg), -25 * kDeg);
+    q[3] = seeded_uniform(s, std::max(lim[3].min, 10 * kDeg), std::min(lim[3].max, 170 * kDeg));
     // the markers well inside the picture
     const auto a = calib::axis_marker_B(model, q);
     double col = 0.0, row = 0.0;
@@ -189,9 +188,11 @@ Result<CalibrationRun> calibrate(Hub& hub, NetCamera& camera, CalibrationOperato
   if (Status s = op.pattern(false); !s) return s.error();
   std::vector<TagCorners> all;
   for (const auto& [id, t] : tags) all.push_back(t);
-  auto cam = calibrate_webcam(nominal_webcam(base.scene.camera), all, o.width_px, o.height_px, base);
+  auto cam =
+      calibrate_webcam(nominal_webcam(base.scene.camera), all, o.width_px, o.height_px, base);
   if (!cam) {
-    return Error{cam.error().code, "calibration: the webcam on the pattern: " + cam.error().message};
+    return Error{cam.error().code,
+                 "calibration: the webcam on the pattern: " + cam.error().message};
   }
   say(o, fmt::format("  the webcam: {} tags, {} corners, residual {:.2f} px{}", cam->tags,
                      cam->corners, cam->rms_px, cam->note.empty() ? "" : "; " + cam->note));

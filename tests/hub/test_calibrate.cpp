@@ -101,7 +101,8 @@ INSTANTIATE_TEST_SUITE_P(ThreeBuilds, CalibrateSeed, ::testing::Values(3, 11, 42
 // A robot whose pattern cannot be seen (the operator never lays it down): refused with the
 // reason, exit 1, and no overlay written.
 TEST(Calibrate, RefusesWithoutTheWebcamAndWritesNothing) {
-  const fs::path dir = fs::temp_directory_path() / fmt::format("scaratwin-calibrate-x-{}", getpid());
+  const fs::path dir =
+      fs::temp_directory_path() / fmt::format("scaratwin-calibrate-x-{}", getpid());
   fs::remove_all(dir);
   fs::create_directories(dir);
   const fs::path overlay = dir / "out.toml";

@@ -52,18 +52,21 @@ struct CalibrationRun {
   calib::Measurements measurements;
   calib::Fit fit;
   RobotModel calibrated;
-  WebcamFit camera;  // the webcam on the printed pattern (before the joint fit)
+  WebcamFit camera;      // the webcam on the printed pattern (before the joint fit)
   double robot_s = 0.0;  // the routine's duration on the robot's clock
   int pictures = 0;
 };
 
 bool is_calibrated(const RobotModel& model);
 
+// A uniform draw in [lo, hi) from a splitmix64 state: the same poses on every machine.
+double seeded_uniform(std::uint64_t& state, double lo, double hi);
+
 // Unidirectional positioning: a quick move to `target` less `dir` x 1.5 deg on J2 and J3 (and
-// 1 mm on Z), then a slow last 1.5 deg towards it (Z and J2, then J3 alone). A belt drive comes to rest on one flank of
-// its dead band only when the last motion was slow: after a fast move the arm's own momentum
-// and the other link's reaction can leave it on either. `dir` (+1 / -1 per stepper joint) is
-// then the side each joint rests on.
+// 1 mm on Z), then a slow last 1.5 deg towards it (Z and J2, then J3 alone). A belt drive comes to
+// rest on one flank of its dead band only when the last motion was slow: after a fast move the
+// arm's own momentum and the other link's reaction can leave it on either. `dir` (+1 / -1 per
+// stepper joint) is then the side each joint rests on.
 Status approach(Hub& hub, const JointVector& target, const MotionDirections& dir);
 
 // The marks of the touch-offs: two corners of each tray, at the height the tool point has
