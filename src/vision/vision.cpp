@@ -176,12 +176,14 @@ std::vector<CubeDetection> detect_cubes(const RgbImage& img, const RobotModel& m
 namespace {
 
 // Centroid of the pixels whose channels (a, b, c) = (rgb[ia], rgb[ib], rgb[ic]) have a and b
-// at least `lo` and c below `ratio` of the smaller of a and b.
+// at least `lo` and c below `ratio` of the smaller of a and b; none when one of them is on the
+// picture's edge (a disc cut by the edge has its centroid off its centre).
 bool centroid_of(const RgbImage& image, int ia, int ib, int ic, double min_channel, double ratio,
                  int min_area_px, double& col, double& row) {
   const double lo = 255.0 * min_channel;
   double su = 0.0, sv = 0.0;
   int n = 0;
+  bool on_edge = false;
   for (int v = 0; v < image.height; ++v) {
     for (int u = 0; u < image.width; ++u) {
       const std::uint8_t* p = &image.rgb[3 * (static_cast<std::size_t>(v) * image.width + u)];
@@ -190,10 +192,11 @@ bool centroid_of(const RgbImage& image, int ia, int ib, int ic, double min_chann
         su += u + 0.5;
         sv += v + 0.5;
         ++n;
+        on_edge = on_edge || u == 0 || v == 0 || u == image.width - 1 || v == image.height - 1;
       }
     }
   }
-  if (n < min_area_px) return false;
+  if (n < min_area_px || on_edge) return false;
   col = su / n;
   row = sv / n;
   return true;

@@ -78,6 +78,35 @@ TEST(Vision, FindsEachColouredCubeWhereItLies) {
   EXPECT_GT(found[0].area_px, 50);
 }
 
+// A magenta disc of radius 6 px centred at (cx, cy) on grey, drawn by pixel centres.
+RgbImage disc_picture(double cx, double cy) {
+  RgbImage img{120, 90, std::vector<std::uint8_t>(120 * 90 * 3, 90)};
+  for (int v = 0; v < img.height; ++v) {
+    for (int u = 0; u < img.width; ++u) {
+      if (std::hypot(u + 0.5 - cx, v + 0.5 - cy) > 6.0) continue;
+      std::uint8_t* p = &img.rgb[3 * (static_cast<std::size_t>(v) * img.width + u)];
+      p[0] = 230;
+      p[1] = 30;
+      p[2] = 220;
+    }
+  }
+  return img;
+}
+
+TEST(Vision, FindsAMarkerDiscAtItsCentreAndNotOneCutByTheEdge) {
+  double col = 0.0, row = 0.0;
+  ASSERT_TRUE(detect_marker(disc_picture(40.0, 30.0), col, row));
+  EXPECT_NEAR(col, 40.0, 1e-9);  // symmetric about its centre: the centroid is exact
+  EXPECT_NEAR(row, 30.0, 1e-9);
+  // its centre 2 px inside the left edge: a third of it cut away, the centroid would be
+  // 2.6 px off; not seen rather than seen wrong
+  EXPECT_FALSE(detect_marker(disc_picture(2.0, 30.0), col, row));
+  EXPECT_FALSE(detect_marker(disc_picture(60.0, 87.0), col, row));
+  // one pixel clear of the edge: seen
+  ASSERT_TRUE(detect_marker(disc_picture(8.0, 30.0), col, row));
+  EXPECT_NEAR(col, 8.0, 1e-9);
+}
+
 TEST(Vision, RejectsBytesThatAreNotPng) {
   auto r = decode_png("definitely not a png");
   ASSERT_FALSE(r);

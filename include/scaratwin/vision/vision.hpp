@@ -70,13 +70,15 @@ std::vector<CubeDetection> detect_cubes(const RgbImage& image, const RobotModel&
 
 // The robot's tracking marker (a magenta disc on the wrist axis): the centroid of the magenta
 // pixels (red and blue both at least `min_channel` of full scale and green below `green_ratio`
-// of the smaller of them), in pixels; false when fewer than `min_area_px` are found.
+// of the smaller of them), in pixels; false when fewer than `min_area_px` are found or the
+// disc touches the picture's edge (cut by it, its centroid would be off its centre).
 bool detect_marker(const RgbImage& image, double& col, double& row, int min_area_px = 4,
                    double min_channel = 0.45, double green_ratio = 0.6);
 
 // The second marker (a cyan disc on a flag off the wrist axis, showing the wrist's angle): the
 // centroid of the cyan pixels (green and blue both at least `min_channel` of full scale and
-// red below `red_ratio` of the smaller of them); false when fewer than `min_area_px`.
+// red below `red_ratio` of the smaller of them); false when fewer than `min_area_px` or on the
+// picture's edge.
 bool detect_flag_marker(const RgbImage& image, double& col, double& row, int min_area_px = 4,
                         double min_channel = 0.45, double red_ratio = 0.6);
 
