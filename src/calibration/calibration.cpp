@@ -241,35 +241,122 @@ std::optional<std::string> missing_measurement(const RobotModel& base, const Mea
   return std::nullopt;
 }
 
-Result<Fit> fit(const RobotModel& base, const CameraPrior& camera, const Measurements& m,
+namespace {
+
+// One Levenberg-Marquardt solve: the unknowns (in scale units), the residuals at them, the
+// rows' count and the solver's iterations.
+struct Solve {
+  Eigen::VectorXd x, r;
+  int rows = 0, iterations = 0;
+  bool improper = false;
+};
+
+Solve solve(const Problem& prob0) {
+  Problem prob = prob0;
+  prob.rows = kWebcamParams;
+  for (const MarkerView& v : prob.m.markers) {
+    prob.rows += 2 * ((v.axis_px ? 1 : 0) + (v.flag_px ? 1 : 0));
+  }
+  prob.rows += 3 * static_cast<int>(prob.m.touches.size());
+  Functor f{&prob};
+  Solve s;
+  s.rows = prob.rows;
+  s.x = Eigen::VectorXd::Zero(kParamCount);
+  Eigen::LevenbergMarquardt<Functor> lm(f);
+  lm.parameters.maxfev = prob.o.max_iterations;
+  lm.parameters.xtol = 1e-12;
+  lm.parameters.ftol = 1e-12;
+  const auto status = lm.minimize(s.x);
+  s.iterations = static_cast<int>(lm.iter);
+  s.improper = status == Eigen::LevenbergMarquardtSpace::ImproperInputParameters;
+  s.r.resize(prob.rows);
+  prob.residuals(prob.to_theta(s.x), s.r);
+  return s;
+}
+
+// Each marker point's residual in pixels, in the order of the residual rows, with the view
+// and which marker (0 the axis marker, 1 the flag) it belongs to.
+struct PointResidual {
+  std::size_t view;
+  int marker;
+  double px;
+};
+
+std::vector<PointResidual> marker_residuals(const Measurements& m, const Eigen::VectorXd& r,
+                                            double pixel_sigma) {
+  std::vector<PointResidual> out;
+  int k = kWebcamParams;
+  for (std::size_t i = 0; i < m.markers.size(); ++i) {
+    const MarkerView& v = m.markers[i];
+    for (int which = 0; which < 2; ++which) {
+      if (!(which == 0 ? v.axis_px : v.flag_px)) continue;
+      out.push_back({i, which, std::hypot(r[k], r[k + 1]) * pixel_sigma});
+      k += 2;
+    }
+  }
+  return out;
+}
+
+}  // namespace
+
+Result<Fit> fit(const RobotModel& base, const CameraPrior& camera, const Measurements& given,
                 const FitOptions& o) {
-  if (auto missing = missing_measurement(base, m)) {
+  if (auto missing = missing_measurement(base, given)) {
     return Error{1, "calibration needs more measurements: " + *missing};
   }
+  // A marker partly hidden or mistaken (a reflection, a cut-off disc) puts its centroid
+  // pixels away from where one robot can explain it: such points are set aside, the worst
+  // first, and the fit repeated, as long as they stay a small share of all points.
+  Measurements m = given;
+  int given_points = 0;
+  for (const MarkerView& v : m.markers) given_points += (v.axis_px ? 1 : 0) + (v.flag_px ? 1 : 0);
   Problem prob{base, camera, m, o};
+  Solve s = solve(prob);
+  int outliers = 0;
+  for (int round = 0; round < 8 && !s.improper; ++round) {
+    const auto res = marker_residuals(m, s.r, o.pixel_sigma);
+    double worst = 0.0;
+    for (const PointResidual& p : res) worst = std::max(worst, p.px);
+    if (worst <= o.outlier_px) break;
+    const double cut = std::max(o.outlier_px, 0.5 * worst);
+    for (const PointResidual& p : res) {
+      if (p.px <= cut) continue;
+      (p.marker == 0 ? m.markers[p.view].axis_px : m.markers[p.view].flag_px).reset();
+      ++outliers;
+    }
+    if (outliers > o.max_outlier_fraction * given_points) {
+      return Error{1, fmt::format("calibration: {} of {} marker points do not fit one robot "
+                                  "(each more than {:.1f} px off): a belt may have slipped or "
+                                  "steps been lost during the routine, or the markers be hard "
+                                  "to see; check the belts and the light and calibrate again "
+                                  "(no overlay written)",
+                                  outliers, given_points, o.outlier_px)};
+    }
+    if (auto missing = missing_measurement(base, m)) {
+      return Error{1, fmt::format("calibration: with {} marker points set aside as outliers "
+                                  "the measurements lack {}",
+                                  outliers, *missing)};
+    }
+    s = solve(prob);
+  }
+  if (s.improper) {
+    return Error{1, "calibration: the solver refused its input (no measurements?)"};
+  }
+
   Fit out;
   out.pattern_points = camera.corners;
-  prob.rows += kWebcamParams;
+  out.outliers = outliers;
+  out.iterations = s.iterations;
   for (const MarkerView& v : m.markers) {
     const int n = (v.axis_px ? 1 : 0) + (v.flag_px ? 1 : 0);
     out.marker_points += n;
     if (n > 0) ++out.marker_views;
-    prob.rows += 2 * n;
   }
   out.touch_offs = static_cast<int>(m.touches.size());
-  prob.rows += 3 * out.touch_offs;
-
+  prob.rows = s.rows;
   Functor f{&prob};
-  Eigen::VectorXd x = Eigen::VectorXd::Zero(kParamCount);
-  Eigen::LevenbergMarquardt<Functor> lm(f);
-  lm.parameters.maxfev = o.max_iterations;
-  lm.parameters.xtol = 1e-12;
-  lm.parameters.ftol = 1e-12;
-  const auto status = lm.minimize(x);
-  out.iterations = static_cast<int>(lm.iter);
-  if (status == Eigen::LevenbergMarquardtSpace::ImproperInputParameters) {
-    return Error{1, "calibration: the solver refused its input (no measurements?)"};
-  }
+  const Eigen::VectorXd& x = s.x;
+  const Eigen::VectorXd& r = s.r;
 
   // observability: the Jacobian at the solution must have full column rank
   Eigen::MatrixXd jac(prob.rows, kParamCount);
@@ -285,29 +372,21 @@ Result<Fit> fit(const RobotModel& base, const CameraPrior& camera, const Measure
                                 kParams[worst].key, kParams[worst].needs)};
   }
 
-  Eigen::VectorXd r(prob.rows);
-  prob.residuals(prob.to_theta(x), r);
   // the residuals in their units
-  double pix2 = 0.0, mark2 = 0.0, touch2 = 0.0;
-  int pix_n = 0, mark_n = 0;
-  int k = kWebcamParams;
-  for (const MarkerView& v : m.markers) {
-    const int n = (v.axis_px ? 1 : 0) + (v.flag_px ? 1 : 0);
-    for (int i = 0; i < n; ++i, k += 2) {
-      const double e2 = std::pow(r[k] * o.pixel_sigma, 2) + std::pow(r[k + 1] * o.pixel_sigma, 2);
-      pix2 += e2;
-      mark2 += e2;
-      ++pix_n;
-      ++mark_n;
-      out.worst_marker_px = std::max(out.worst_marker_px, std::sqrt(e2));
-    }
+  double pix2 = 0.0, touch2 = 0.0;
+  int pix_n = 0;
+  for (const PointResidual& p : marker_residuals(m, r, o.pixel_sigma)) {
+    pix2 += p.px * p.px;
+    ++pix_n;
+    out.worst_marker_px = std::max(out.worst_marker_px, p.px);
   }
+  int k = kWebcamParams + 2 * pix_n;
   for (int i = 0; i < out.touch_offs; ++i, k += 3) {
     touch2 += std::pow(r[k] * o.touch_sigma_m, 2) + std::pow(r[k + 1] * o.touch_sigma_m, 2) +
               std::pow(r[k + 2] * o.touch_sigma_m, 2);
   }
   out.pixel_rms = pix_n > 0 ? std::sqrt(pix2 / pix_n) : 0.0;
-  out.marker_rms_px = mark_n > 0 ? std::sqrt(mark2 / mark_n) : 0.0;
+  out.marker_rms_px = out.pixel_rms;
   out.touch_rms_m = out.touch_offs > 0 ? std::sqrt(touch2 / out.touch_offs) : 0.0;
   if (out.pixel_rms > o.max_pixel_rms || out.touch_rms_m > o.max_touch_rms_m) {
     return Error{
@@ -353,8 +432,9 @@ std::string overlay_text(const RobotModel& base, const Fit& f, const std::string
   t += "# identified: [value, standard error] in the key's unit, as deviations from the base.\n";
   t += fmt::format("base = \"{}\"\n\n[calibration]\n", base_ref);
   t += fmt::format("date = \"{}\"\nrobot = \"{}\"\n", date_utc, base.name);
-  t += fmt::format("pattern_points = {}\nmarker_views = {}\ntouch_offs = {}\n", f.pattern_points,
-                   f.marker_views, f.touch_offs);
+  t += fmt::format("pattern_points = {}\nmarker_views = {}\nmarker_points = {}\n",
+                   f.pattern_points, f.marker_views, f.marker_points);
+  t += fmt::format("outliers = {}\ntouch_offs = {}\n", f.outliers, f.touch_offs);
   t += fmt::format("pixel_rms = {:.4f}\ntouch_rms_mm = {:.4f}\nfit_s = {:.3f}\n\n", f.pixel_rms,
                    f.touch_rms_m * 1e3, f.fit_seconds);
   t += "[calibration.identified]\n";

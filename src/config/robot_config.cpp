@@ -273,6 +273,8 @@ void read_calibration(TableReader& top, RobotModel& m) {
   int count = 0;
   c.integer("pattern_points", count, 0, 1000000);
   c.integer("marker_views", count, 0, 1000000);
+  c.integer("marker_points", count, 0, 1000000);
+  c.integer("outliers", count, 0, 1000000);
   c.integer("touch_offs", count, 0, 1000000);
   double x = 0.0;
   c.number("pixel_rms", x);
@@ -333,8 +335,8 @@ void read_calibration(TableReader& top, RobotModel& m) {
     if (!(cam.f_px > 0.0)) w.fail(fmt::format("calibration.webcam.f_px = {}: must be > 0", cam.f_px));
   }
   c.reject_unknown(
-      "date, robot, pattern_points, marker_views, touch_offs, pixel_rms, touch_rms_mm, fit_s, "
-      "identified, webcam");
+      "date, robot, pattern_points, marker_views, marker_points, outliers, touch_offs, pixel_rms, "
+      "touch_rms_mm, fit_s, identified, webcam");
 }
 
 }  // namespace

@@ -104,6 +104,8 @@ struct FitOptions {
   double max_pixel_rms = 1.5;      // above this the fit is refused (px)
   double max_touch_rms_m = 0.5e-3; // above this too (m)
   double max_normalised_error = 8; // a parameter's std error above this x its scale: refused
+  double outlier_px = 2.0;         // a marker point further off than this is set aside ...
+  double max_outlier_fraction = 0.1;  // ... unless more than this share of them are: refused
   int max_iterations = 200;
 };
 
@@ -116,6 +118,7 @@ struct Fit {
   double touch_rms_m = 0.0;
   double worst_marker_px = 0.0;
   int pattern_points = 0, marker_views = 0, marker_points = 0, touch_offs = 0;
+  int outliers = 0;  // marker points set aside (not counted in marker_points)
   int iterations = 0;
   double fit_seconds = 0.0;  // filled by the caller if it times the fit
 };
@@ -125,9 +128,11 @@ struct Fit {
 // heights, each stepper joint approached from both sides, touch-offs at two wrist angles.
 std::optional<std::string> missing_measurement(const RobotModel& base, const Measurements& m);
 
-// The fit. Errors name the problem: too few or degenerate measurements (which one is
-// missing), a parameter the measurements do not determine, a residual above its threshold
-// (likely a slipped belt or a lost step during the routine).
+// The fit. Marker points more than `outlier_px` off the best fit (a marker partly hidden or
+// mistaken) are set aside, the worst first, and the fit repeated. Errors name the problem:
+// too few or degenerate measurements (which one is missing), a parameter the measurements do
+// not determine, too many outliers or a residual above its threshold (likely a slipped belt
+// or a lost step during the routine).
 Result<Fit> fit(const RobotModel& base, const CameraPrior& camera, const Measurements& m,
                 const FitOptions& options = {});
 
