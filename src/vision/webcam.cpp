@@ -139,6 +139,17 @@ WebcamModel adjusted(const WebcamModel& base, const WebcamParams& d) {
   return c;
 }
 
+WebcamParams adjustment(const WebcamModel& base, const WebcamModel& c) {
+  WebcamParams d{};
+  for (int i = 0; i < 3; ++i) d[i] = c.pos_m[i] - base.pos_m[i];
+  const Eigen::AngleAxisd aa(rotation(base).transpose() * rotation(c));
+  const Eigen::Vector3d w = aa.angle() * aa.axis();
+  for (int i = 0; i < 3; ++i) d[3 + i] = w[i];
+  d[6] = (c.f_px / c.height_px) / (base.f_px / base.height_px) - 1.0;
+  d[7] = c.k1 - base.k1;
+  return d;
+}
+
 namespace {
 
 // One tag seen: its corners in B and where the detector put them.

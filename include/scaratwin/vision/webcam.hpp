@@ -86,6 +86,9 @@ bool unproject_to_plane(const WebcamModel& camera, double col, double row, int w
 inline constexpr int kWebcamParams = 8;
 using WebcamParams = std::array<double, kWebcamParams>;
 WebcamModel adjusted(const WebcamModel& base, const WebcamParams& d);
+// The change that takes `base` to `camera` (the focal lengths compared at the same picture
+// height): adjusted(base, adjustment(base, c)) is c for cameras that differ in these only.
+WebcamParams adjustment(const WebcamModel& base, const WebcamModel& camera);
 
 // --- the tags in a picture and the fit -------------------------------------------------------
 
