@@ -97,6 +97,11 @@ TEST(Webcam, AdjustedMovesTurnsAndScales) {
   EXPECT_DOUBLE_EQ(w.f_px, base.f_px * 1.02);
   EXPECT_DOUBLE_EQ(w.k1, -0.3);
   EXPECT_NEAR(rotation_error_deg(w, base), rad_to_deg(a), 1e-9);
+  // and adjustment() reads the change back (adjusted() is checked by hand above)
+  const WebcamParams back = adjustment(base, adjusted(base, {0.001, -0.002, 0.003, 0.004, -0.005,
+                                                             a, 0.02, -0.3}));
+  const WebcamParams want{0.001, -0.002, 0.003, 0.004, -0.005, a, 0.02, -0.3};
+  for (int i = 0; i < kWebcamParams; ++i) EXPECT_NEAR(back[i], want[i], 1e-12) << i;
 }
 
 TEST(Webcam, PatternCornersFollowTheDescription) {
