@@ -208,11 +208,26 @@ void Hub::on_device_state(const pr::DeviceState& st, const tr::RxPacket& rx) {
                             {static_cast<double>(st.steps[0]), static_cast<double>(st.steps[1]),
                              static_cast<double>(st.steps[2])},
                             rad_to_deg(st.wrist_rad));
-    // a calibrated backlash: each joint trails its motor by half its dead band
-    if (state_count_ > 0) track_directions(report_dir_, report_mid_, ps.q);
-    report_mid_ = ps.q;
-    const JointVector shift = backlash_shift(model_, report_dir_);
-    for (int j = 0; j < kNumJoints; ++j) ps.q[j] += shift[j];
+    // a calibrated backlash: a joint stays put while its motor moves within the dead band,
+    // and trails it by half the band once the motor drags it (the side it then rests on is
+    // report_dir_); after homing each joint trails its motor away from the switch
+    const auto& band = model_.calibration.backlash;
+    if (state_count_ == 0 || play_reset_) {
+      const JointVector shift = backlash_shift(model_, report_dir_);
+      for (int j = 0; j < kNumSteppers; ++j) report_joint_[j] = ps.q[j] + shift[j];
+      play_reset_ = false;
+    }
+    for (int j = 0; j < kNumSteppers; ++j) {
+      const double lo = ps.q[j] - 0.5 * band[j], hi = ps.q[j] + 0.5 * band[j];
+      const double e = std::clamp(report_joint_[j], lo, hi);
+      if (band[j] > 0.0 && e <= lo) report_dir_[j] = 1;
+      if (band[j] > 0.0 && e >= hi) report_dir_[j] = -1;
+      if (band[j] == 0.0 && std::abs(ps.q[j] - report_joint_[j]) > 1e-9) {
+        report_dir_[j] = ps.q[j] > report_joint_[j] ? 1 : -1;
+      }
+      report_joint_[j] = e;
+      ps.q[j] = e;
+    }
     physical_ = ps;
     ++state_count_;
     add_sample(SampleSource::kPhysical, static_cast<double>(rx.steady_us - run_start_us_) / 1e6,
@@ -352,8 +367,16 @@ Status Hub::wait_flags(const std::function<bool(std::uint32_t)>& done, double ti
 }
 
 void Hub::set_model(const RobotModel& model) {
-  std::lock_guard<std::mutex> lock(mu_);
-  model_ = model;
+  MotionDirections dir;
+  {
+    std::lock_guard<std::mutex> lock(mu_);
+    model_ = model;
+    // a new dead band: each joint taken to rest on the side it last moved to (its motor
+    // leading it by half the band), and the trajectories' lead made to agree
+    play_reset_ = true;
+    dir = report_dir_;
+  }
+  if (statements_) statements_->set_directions(dir);
 }
 
 MotionDirections Hub::directions() const {
@@ -427,6 +450,7 @@ Status Hub::home(double timeout_s) {
   // the offsets come just before EV 1 when the robot was homed before
   std::lock_guard<std::mutex> lock(mu_);
   report_dir_ = homed_directions(model_);
+  play_reset_ = true;
   HomingCheck c;
   for (const auto& [n, e] : events_) {
     const int k = static_cast<int>(e.event) - static_cast<int>(pr::DeviceEventCode::kHomingOffsetZ);

@@ -133,18 +133,93 @@ Result<TrajectoryLoad> Twin::load_trajectory(const JointTrajectory& trajectory) 
                                          " samples, need 1..65535"};
   }
   // the points, in wire units
-  std::vector<TrajectoryPoint> points(samples.size());
-  MotionDirections dir;
+  std::vector<TrajectoryPoint> points;
+  points.reserve(samples.size());
+  MotionDirections applied;  // the side of its dead band each joint's motor now leads on
   {
     std::lock_guard lock(log_mutex_);
-    dir = last_dir_;
+    applied = last_dir_;
   }
   const auto& backlash = model_.calibration.backlash;
+  const bool compensate = backlash != std::array<double, 3>{};
+  auto motor_point = [&](const JointVector& q_joint, const std::array<double, 3>& lead,
+                         double dt_s) {
+    // a calibrated backlash: the motor leads the joint by `lead` (half the dead band, signed)
+    JointVector q = q_joint;
+    for (int j = 0; j < kNumSteppers; ++j) q[j] += lead[j];
+    TrajectoryPoint p;
+    p.seq = static_cast<std::int32_t>(points.size());
+    p.dt_s = dt_s;
+    const auto steps = joints_to_steps(model_, q);
+    p.steps = {steps[0], steps[1], steps[2]};
+    p.wrist_rad = deg_to_rad(joints_to_motors(model_, q).wrist_deg);
+    points.push_back(p);
+  };
+  auto lead_of = [&backlash](const MotionDirections& d) {
+    return std::array<double, 3>{0.5 * d[0] * backlash[0], 0.5 * d[1] * backlash[1],
+                                 0.5 * d[2] * backlash[2]};
+  };
+  // Where a joint turns, its motor must cross the dead band while the joint stays: at a point
+  // where the trajectory rests, a take-up is inserted (the motors alone move the band, on a
+  // smooth ramp at a quarter of their acceleration), so no point jumps; a joint that turns
+  // while moving keeps its lead until the next rest (the joint trails by the band till then).
+  auto at_rest = [&samples](std::size_t k) {
+    for (int j = 0; j < kNumSteppers; ++j) {
+      if (std::abs(samples[k].qd[j]) > 1e-6) return false;
+    }
+    return true;
+  };
+  // the side each joint moves to next after sample k (or, if it stays, the side it came from)
+  auto sides_after = [&samples](std::size_t k, MotionDirections came) {
+    MotionDirections next = came;
+    std::array<bool, kNumSteppers> found{};
+    for (std::size_t i = k + 1; i < samples.size(); ++i) {
+      for (int j = 0; j < kNumSteppers; ++j) {
+        const double d = samples[i].q[j] - samples[k].q[j];
+        if (!found[j] && std::abs(d) > 1e-9) {
+          next[j] = d > 0.0 ? 1 : -1;
+          found[j] = true;
+        }
+      }
+    }
+    return next;
+  };
+  auto take_up = [&](const JointVector& q_hold, const MotionDirections& to) {
+    const auto from_lead = lead_of(applied), to_lead = lead_of(to);
+    const auto a = joints_to_steps(model_, [&] {
+      JointVector q = q_hold;
+      for (int j = 0; j < kNumSteppers; ++j) q[j] += from_lead[j];
+      return q;
+    }());
+    const auto b = joints_to_steps(model_, [&] {
+      JointVector q = q_hold;
+      for (int j = 0; j < kNumSteppers; ++j) q[j] += to_lead[j];
+      return q;
+    }());
+    const std::array<double, 3> accel{model_.motors.z.max_accel_steps_s2,
+                                      model_.motors.j2.max_accel_steps_s2,
+                                      model_.motors.j3.max_accel_steps_s2};
+    double t = 0.1;
+    for (int j = 0; j < kNumSteppers; ++j) {
+      // a quintic ramp's peak acceleration is 5.77 d / T^2
+      t = std::max(t, std::sqrt(5.77 * std::abs(b[j] - a[j]) / (0.25 * accel[j])));
+    }
+    const int n = std::max(5, static_cast<int>(std::ceil(t / 0.02)));
+    const double dt = std::ceil(t / n * 1000.0) / 1000.0;
+    for (int i = 1; i <= n; ++i) {
+      const double u = static_cast<double>(i) / n;
+      const double s = u * u * u * (10.0 + u * (-15.0 + 6.0 * u));
+      std::array<double, 3> lead{};
+      for (int j = 0; j < kNumSteppers; ++j) lead[j] = from_lead[j] + s * (to_lead[j] - from_lead[j]);
+      motor_point(q_hold, lead, dt);
+    }
+    applied = to;
+  };
+
+  MotionDirections came = applied;  // the side each joint last moved to
   std::size_t event = 0;
   double total_s = 0.0;
   for (std::size_t k = 0; k < samples.size(); ++k) {
-    auto& p = points[k];
-    p.seq = static_cast<std::int32_t>(k);
     std::int64_t dt_ms = 0;
     if (k == 0) {
       dt_ms = samples.size() > 1
@@ -154,8 +229,6 @@ Result<TrajectoryLoad> Twin::load_trajectory(const JointTrajectory& trajectory) 
       dt_ms = std::llround(samples[k].t_s * 1000.0) - std::llround(samples[k - 1].t_s * 1000.0);
     }
     dt_ms = std::clamp<std::int64_t>(dt_ms, 1, 65535);
-    p.dt_s = static_cast<double>(dt_ms) / 1000.0;
-    total_s += p.dt_s;
     // The device reaches the point at whole milliseconds: take the position at that time, not
     // at the sample's own (a sample spacing of 20.05 ms sent as 20 and 21 ms would turn into
     // a 5 % speed jitter that the firmware's acceleration check refuses). Second-order Taylor
@@ -166,24 +239,32 @@ Result<TrajectoryLoad> Twin::load_trajectory(const JointTrajectory& trajectory) 
     for (int j = 0; j < kNumJoints; ++j) {
       q[j] += samples[k].qd[j] * shift_s + 0.5 * samples[k].qdd[j] * shift_s * shift_s;
     }
-    // a calibrated backlash: the motor leads the joint by half the dead band
-    if (k > 0) track_directions(dir, samples[k - 1].q, samples[k].q);
-    for (int j = 0; j < kNumSteppers; ++j) q[j] += 0.5 * dir[j] * backlash[j];
-    const auto steps = joints_to_steps(model_, q);
-    p.steps = {steps[0], steps[1], steps[2]};
-    p.wrist_rad = deg_to_rad(joints_to_motors(model_, q).wrist_deg);
+    if (k > 0) track_directions(came, samples[k - 1].q, samples[k].q);
+    motor_point(q, lead_of(applied), static_cast<double>(dt_ms) / 1000.0);
+    TrajectoryPoint& p = points.back();
     while (event < trajectory.events.size() && trajectory.events[event].t_s <= samples[k].t_s) {
       const bool close = trajectory.events[event].action == GripperAction::kGrip;
       p.grip_rad =
           deg_to_rad(close ? model_.motors.gripper_closed_deg : model_.motors.gripper_open_deg);
       ++event;
     }
+    if (compensate && (k == 0 || k + 1 == samples.size() || at_rest(k))) {
+      const MotionDirections next = sides_after(k, came);
+      if (next != applied) take_up(q, next);
+    }
   }
+  for (const TrajectoryPoint& p : points) total_s += p.dt_s;
   if (event < trajectory.events.size()) {  // events after the last sample go with it
     const bool close = trajectory.events.back().action == GripperAction::kGrip;
     points.back().grip_rad =
         deg_to_rad(close ? model_.motors.gripper_closed_deg : model_.motors.gripper_open_deg);
   }
+  if (points.size() > 65535) {
+    return Error{core::kErrBadValue,
+                 std::string(kName) + ": " + std::to_string(points.size()) +
+                     " points with the backlash take-ups, need at most 65535"};
+  }
+  const MotionDirections dir = applied;
 
   auto begin = physical_->request(TrajectoryBegin{static_cast<std::int32_t>(points.size())},
                                   options_.reply_timeout);

@@ -177,6 +177,67 @@ TEST(Statements, LoadTrajectoryHonoursCreditAndTheReceiveWindow) {
   EXPECT_EQ(with_grip, 1);
 }
 
+// A calibrated dead band: the motor leads each joint by half the band in the direction it
+// moves. Where a joint turns (here at the rest between going out and coming back, and at the
+// start against the side it last moved to) the motors cross the band alone on a smooth ramp,
+// so no point asks for more than the motors' acceleration; the last point leads the end by
+// half the band on the side of the last motion. Checked against the points as sent.
+TEST(Statements, LoadTrajectoryTakesUpACalibratedDeadBandWhereAJointTurns) {
+  Rig rig;
+  rig.model.calibration.backlash = {0.0, deg_to_rad(0.3), deg_to_rad(0.25)};
+  ASSERT_TRUE(rig.up());
+  rig.twin->set_directions({1, 1, 1});
+  const JointVector q0{0.08, deg_to_rad(20), deg_to_rad(40), 0.0};
+  const JointVector q1{0.08, deg_to_rad(10), deg_to_rad(30), 0.0};  // J2, J3 go down ...
+  JointTrajectory traj = quintic(q0, q1, 3.0, 60);
+  append(traj, quintic(q1, q0, 3.0, 60));  // ... and back up
+  auto load = rig.twin->load_trajectory(traj);
+  ASSERT_TRUE(load) << load.error().message;
+  std::lock_guard lock(rig.device.m);
+  const auto& pts = rig.device.received;
+  ASSERT_EQ(static_cast<int>(pts.size()), load->points);
+  EXPECT_GT(pts.size(), traj.samples.size());  // take-ups were inserted
+  auto motor = [&](const JointVector& q, int d2, int d3) {
+    // the joint map (docs/calibration.md): the firmware's joint = joint - band (homing_dir -
+    // dir) / 2, the motor leading the joint by half the band on the side it moves
+    const auto& hd = rig.model.endstops.homing_dir;
+    JointVector m = q;
+    m[1] -= 0.5 * (hd[1] - d2) * deg_to_rad(0.3);
+    m[2] -= 0.5 * (hd[2] - d3) * deg_to_rad(0.25);
+    // then the description's conversion, the J3 motor coupled to J2
+    return std::array<double, 2>{m[1] * rig.model.motors.j2.steps_per_unit,
+                                 m[2] * rig.model.motors.j3.steps_per_unit +
+                                     rig.model.motors.j3_per_j2_coupling * m[1] *
+                                         rig.model.motors.j2.steps_per_unit};
+  };
+  // starts where the motors are (leading upwards), ends leading upwards again
+  const auto first = motor(q0, 1, 1);
+  EXPECT_NEAR(pts.front().steps[1], first[0], 0.51);
+  EXPECT_NEAR(pts.front().steps[2], first[1], 0.51);
+  EXPECT_NEAR(pts.back().steps[1], first[0], 0.51);
+  EXPECT_NEAR(pts.back().steps[2], first[1], 0.51);
+  // at the turn, at rest at q1, the motors lead downwards
+  const auto turned = motor(q1, -1, -1);
+  bool at_turn = false;
+  for (const auto& p : pts) {
+    at_turn = at_turn || (std::abs(p.steps[1] - turned[0]) <= 0.51 &&
+                          std::abs(p.steps[2] - turned[1]) <= 0.51);
+  }
+  EXPECT_TRUE(at_turn);
+  // no jump: the acceleration between consecutive segments within the motors' limit
+  const std::array<double, 2> limit{rig.model.motors.j2.max_accel_steps_s2,
+                                    rig.model.motors.j3.max_accel_steps_s2};
+  for (std::size_t k = 2; k < pts.size(); ++k) {
+    for (int a = 1; a <= 2; ++a) {
+      const double v1 = (pts[k - 1].steps[a] - pts[k - 2].steps[a]) / pts[k - 1].dt_s;
+      const double v2 = (pts[k].steps[a] - pts[k - 1].steps[a]) / pts[k].dt_s;
+      const double acc = std::abs(v2 - v1) / (0.5 * (pts[k - 1].dt_s + pts[k].dt_s));
+      // one step of rounding in 20 ms shows as up to 2 / 0.02^2 steps/s^2 of apparent jitter
+      EXPECT_LE(acc, limit[a - 1] + 2.0 / (pts[k].dt_s * pts[k].dt_s)) << "point " << k << " axis " << a;
+    }
+  }
+}
+
 TEST(Statements, GripReleaseAndPicture) {
   Rig rig;
   ASSERT_TRUE(rig.up());

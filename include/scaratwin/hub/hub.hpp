@@ -234,7 +234,8 @@ class Hub {
   HomingCheck last_homing_;
   // the side of its dead band each joint rests on (a calibrated backlash), from the reports
   MotionDirections report_dir_{};
-  JointVector report_mid_{};  // the last report's joints at the middle of the dead bands
+  JointVector report_joint_{};  // the last report's joints (the belts' play applied)
+  bool play_reset_ = false;      // homing: start the play again from the homed sides
 };
 
 }  // namespace scaratwin
