@@ -11,6 +11,7 @@
 
 #include "scaratwin/core/units.hpp"
 #include "scaratwin/kinematics/kinematics.hpp"
+#include "scaratwin/sim/mjcf.hpp"
 #include "scaratwin/trajectory/trajectory.hpp"
 #include "scaratwin/vision/webcam.hpp"
 
@@ -74,25 +75,38 @@ Result<RgbImage> picture(NetCamera& camera, const CalibrationOptions& o, int& co
 }  // namespace
 
 Status approach(Hub& hub, const JointVector& target, const MotionDirections& dir) {
+  auto now = hub.fresh_physical(2.0);
+  if (!now) return now.error();
   JointVector before = target;
-  before[0] -= dir[0] * 0.001;
+  before[0] -= dir[0] * 0.00025;  // 10 times the lead screw's play
   before[1] -= dir[1] * 1.5 * kDeg;
   before[2] -= dir[2] * 1.5 * kDeg;
-  if (Status s = move_to(hub, before); !s) return s;
-  // slow, Z and J2 first, then J3 alone: the elbow link moving with the upper arm comes to
-  // rest on whichever flank the upper arm's motion leaves it (seen in the truth: J3's side
-  // followed J2's direction when both moved together)
+  // near a limit the run-up is shorter (its last part is still towards `dir`)
+  for (int j = 0; j < 3; ++j) {
+    const JointLimit& lim = hub.model().limits[j];
+    before[j] = std::clamp(before[j], lim.min, lim.max);
+  }
+  // one trajectory (no stop to wait for between its parts): quick to `before`, then slow, Z
+  // and J2 first, then J3 alone: the elbow link moving with the upper arm comes to rest on
+  // whichever flank the upper arm's motion leaves it (seen in the truth: J3's side followed
+  // J2's direction when both moved together)
+  auto motion = plan_quintic(hub.model(), now->q, before);
+  if (!motion) return motion.error();
   JointVector mid = target;
   mid[2] = before[2];
   for (const auto& [from, to] : {std::pair{before, mid}, std::pair{mid, target}}) {
-    const double t = std::max(0.6, 2.5 * quintic_min_duration(hub.model(), from, to));
+    // slow for the belts (2.5 times their shortest time); the lead screw holds where it stops
+    JointVector belts_only = from;
+    belts_only[0] = to[0];
+    const double t = std::max({0.5, quintic_min_duration(hub.model(), from, to),
+                               2.5 * quintic_min_duration(hub.model(), belts_only, to)});
     auto slow = plan_quintic(hub.model(), from, to, {20, t});
     if (!slow) return slow.error();
-    auto run = hub.run_trajectory(*slow);
-    if (!run) return run.error();
-    if (Status s = hub.wait_idle(30.0); !s) return s;
+    append(*motion, *slow);
   }
-  return Ok{};
+  auto run = hub.run_trajectory(*motion);
+  if (!run) return run.error();
+  return hub.wait_idle(30.0);
 }
 
 double seeded_uniform(std::uint64_t& s, double lo, double hi) {
@@ -114,13 +128,46 @@ std::vector<std::pair<std::string, std::array<double, 3>>> touch_marks(const Rob
   // crosses printed on the mat the robot stands on (registered to its base), clear of the
   // trays; the tool point 15 mm above the table (a gauge block under the jaws)
   const double z = model.scene.table_z_m + 0.015;
-  return {{"mark A", {0.10, 0.15, z}}, {"mark B", {0.18, 0.11, z}}, {"mark C", {0.22, 0.06, z}},
-          {"mark D", {0.23, 0.02, z}}, {"mark E", {0.14, 0.06, z}}, {"mark F", {0.17, 0.03, z}}};
+  return {{"mark A", {0.10, 0.15, z}}, {"mark D", {0.23, 0.02, z}}, {"mark E", {0.14, 0.06, z}},
+          {"mark B", {0.18, 0.11, z}}, {"mark C", {0.22, 0.06, z}}, {"mark F", {0.17, 0.03, z}}};
 }
 
-std::vector<JointVector> marker_poses(const RobotModel& model, int count, std::uint64_t seed) {
+std::vector<JointVector> visiting_order(const RobotModel& model, std::vector<JointVector> poses) {
+  // a move's duration grows with the square root of its distance over the acceleration
+  // (a quintic: peak acceleration 5.77 d / T^2); the slowest joint sets it
+  const MotorModel& m = model.motors;
+  const std::array<double, 3> accel{m.z.max_accel_steps_s2 / m.z.steps_per_unit,
+                                    m.j2.max_accel_steps_s2 / m.j2.steps_per_unit,
+                                    m.j3.max_accel_steps_s2 / m.j3.steps_per_unit};
+  const auto cost = [&accel](const JointVector& a, const JointVector& b) {
+    double t = 0.0;
+    for (int j = 0; j < 3; ++j) t = std::max(t, std::sqrt(5.77 * std::abs(a[j] - b[j]) / accel[j]));
+    return t;
+  };
   std::vector<JointVector> out;
-  const WebcamModel cam = nominal_webcam(model.scene.camera);
+  // one elbow configuration, then the other (switching costs the longest J3 move)
+  for (const bool up : {true, false}) {
+    std::vector<JointVector> group;
+    for (const JointVector& q : poses) {
+      if ((q[2] >= 0.0) == up) group.push_back(q);
+    }
+    if (group.empty()) continue;
+    JointVector at = out.empty() ? model.home : out.back();
+    while (!group.empty()) {
+      auto next = std::min_element(group.begin(), group.end(), [&](const auto& a, const auto& b) {
+        return cost(at, a) < cost(at, b);
+      });
+      at = *next;
+      out.push_back(at);
+      group.erase(next);
+    }
+  }
+  return out;
+}
+
+std::vector<JointVector> marker_poses(const RobotModel& model, const WebcamModel& cam, int count,
+                                      std::uint64_t seed) {
+  std::vector<JointVector> out;
   const auto& lim = model.limits;
   std::uint64_t s = seed * 0x2545F4914F6CDD1DULL + 1;
   int tries = 0;
@@ -128,22 +175,33 @@ std::vector<JointVector> marker_poses(const RobotModel& model, int count, std::u
     const bool elbow_up = out.size() % 2 == 0;
     JointVector q;
     // high enough that the jaws clear the trays; the joints a margin inside their limits
-    q[0] = seeded_uniform(s, std::max(lim[0].min, 0.075), lim[0].max - 0.002);
+    // Z stratified: pose k in the k-th of `count` slices of the travel, so the heights span it
+    const double z_lo = std::max(lim[0].min, 0.075), z_hi = lim[0].max - 0.002;
+    const double slice = (z_hi - z_lo) / count;
+    q[0] = z_lo + slice * (static_cast<double>(out.size()) + seeded_uniform(s, 0.0, 1.0));
     q[1] = seeded_uniform(s, std::max(lim[1].min + 15 * kDeg, -95 * kDeg),
                           std::min(lim[1].max - 15 * kDeg, 95 * kDeg));
     q[2] = elbow_up ? seeded_uniform(s, 30 * kDeg, std::min(lim[2].max - 15 * kDeg, 140 * kDeg))
                     : seeded_uniform(s, std::max(lim[2].min + 8 * kDeg, -140 * kDeg), -25 * kDeg);
     q[3] = seeded_uniform(s, std::max(lim[3].min, 10 * kDeg), std::min(lim[3].max, 170 * kDeg));
-    // the markers well inside the picture
+    // both markers well inside the picture, as the pattern's camera sees it (its lens
+    // moves the picture's edges by tens of pixels): a disc cut by the edge is not seen whole
     const auto a = calib::axis_marker_B(model, q);
-    double col = 0.0, row = 0.0;
-    if (!project(cam, a, 1280, 960, col, row)) continue;
-    if (col < 60 || col > 1220 || row < 60 || row > 900) continue;
+    const auto inside = [&cam](const std::array<double, 3>& p, double radius) {
+      double col = 0.0, row = 0.0;
+      constexpr double kMargin = 48.0, kW = 1280.0, kH = 960.0;
+      return project_disc(cam, p, radius, static_cast<int>(kW), static_cast<int>(kH), col, row) &&
+             col > kMargin && col < kW - kMargin && row > kMargin && row < kH - kMargin;
+    };
+    if (!inside(a, sim::kMarkerRadiusM) ||
+        !inside(calib::flag_marker_B(model, q), sim::kFlagMarkerRadiusM)) {
+      continue;
+    }
     // not over the robot's own base column
     if (std::hypot(a[0], a[1]) < 0.09) continue;
     out.push_back(q);
   }
-  return out;
+  return visiting_order(model, std::move(out));
 }
 
 Result<CalibrationRun> calibrate(Hub& hub, NetCamera& camera, CalibrationOperator& op,
@@ -162,12 +220,13 @@ Result<CalibrationRun> calibrate(Hub& hub, NetCamera& camera, CalibrationOperato
   if (Status s = hub.home(); !s) return s.error();
   auto first = read_robot(hub);
   if (!first) return first.error();
-  std::uint64_t device_s = 0;  // the robot's clock, unwrapped
+  std::uint64_t device_us = 0;  // the robot's clock since homing, unwrapped
   std::uint32_t last_us = first->device_us;
   auto tick = [&](std::uint32_t us) {
-    device_s += static_cast<std::uint32_t>(us - last_us);
+    device_us += static_cast<std::uint32_t>(us - last_us);
     last_us = us;
   };
+  const auto robot_s = [&device_us] { return static_cast<double>(device_us) / 1e6; };
 
   // 1. the printed pattern, seen with the arm to one side and then the other (each tag from
   // the picture where the arm does not hide it)
@@ -200,7 +259,7 @@ Result<CalibrationRun> calibrate(Hub& hub, NetCamera& camera, CalibrationOperato
   calib::CameraPrior prior{cam->camera, cam->std_error, cam->corners};
 
   // 2. the markers at poses over the workspace
-  const std::vector<JointVector> poses = marker_poses(base, o.marker_poses, o.seed);
+  const std::vector<JointVector> poses = marker_poses(base, cam->camera, o.marker_poses, o.seed);
   say(o, fmt::format("the tool's markers at {} poses", poses.size()));
   int unseen = 0;
   for (std::size_t i = 0; i < poses.size(); ++i) {
@@ -223,7 +282,10 @@ Result<CalibrationRun> calibrate(Hub& hub, NetCamera& camera, CalibrationOperato
     if (!v.axis_px) ++unseen;
     m.markers.push_back(v);
     if (o.on_measurement) o.on_measurement(&m.markers.back(), nullptr);
-    if ((i + 1) % 6 == 0) say(o, fmt::format("  {} of {} poses", i + 1, poses.size()));
+    if ((i + 1) % 6 == 0) {
+      say(o, fmt::format("  {} of {} poses ({:.0f} s of robot time)", i + 1, poses.size(),
+                         robot_s()));
+    }
   }
   if (unseen > static_cast<int>(poses.size()) / 4) {
     return Error{1, fmt::format("calibration: the tool marker was not found in {} of {} pictures "
@@ -232,7 +294,8 @@ Result<CalibrationRun> calibrate(Hub& hub, NetCamera& camera, CalibrationOperato
   }
 
   // 3. touch-offs, at three wrist angles
-  const auto marks = touch_marks(base);
+  auto marks = touch_marks(base);
+  marks.resize(std::min(marks.size(), static_cast<std::size_t>(std::max(o.touch_offs, 0))));
   say(o, fmt::format("touch-offs: the tool onto {} marks", marks.size()));
   static constexpr double kWrist[] = {20.0, 90.0, 160.0};
   for (std::size_t i = 0; i < marks.size(); ++i) {
@@ -243,7 +306,7 @@ Result<CalibrationRun> calibrate(Hub& hub, NetCamera& camera, CalibrationOperato
     // at this mark's angle (it hardly moves the tool point: the operator makes up for it)
     auto q_above = Result<JointVector>(Error{1, "no wrist angle"});
     for (double yaw = -180.0; yaw < 180.0 && !q_above; yaw += 30.0) {
-      q_above = inverse(base, ToolPose{p[0], p[1], p[2] + 0.02, yaw * kDeg}, now->q);
+      q_above = inverse(base, ToolPose{p[0], p[1], p[2] + 0.008, yaw * kDeg}, now->q);
     }
     if (!q_above) {
       return Error{1, fmt::format("calibration: {} at ({:.0f}, {:.0f}) mm is out of reach: {}",
@@ -252,7 +315,7 @@ Result<CalibrationRun> calibrate(Hub& hub, NetCamera& camera, CalibrationOperato
     (*q_above)[3] = kWrist[i % 3] * kDeg;
     if (Status s = move_to(hub, *q_above); !s) return s.error();
     JointVector q_on = *q_above;
-    q_on[0] -= 0.02;
+    q_on[0] -= 0.008;
     if (Status s = move_to(hub, q_on); !s) return s.error();
     if (Status s = op.touch_off(hub, name, p); !s) return s.error();
     if (Status s = hub.sleep(o.settle_s); !s) return s.error();
@@ -260,13 +323,14 @@ Result<CalibrationRun> calibrate(Hub& hub, NetCamera& camera, CalibrationOperato
     if (!r) return r.error();
     tick(r->device_us);
     m.touches.push_back({name, p, r->q_fw, r->dir});
+    say(o, fmt::format("  {} ({:.0f} s of robot time)", name, robot_s()));
     if (o.on_measurement) o.on_measurement(nullptr, &m.touches.back());
     // lift clear before the next
     JointVector up = r->q_fw;
-    up[0] = std::min(base.limits[0].max - 0.002, up[0] + 0.03);
+    up[0] = std::min(base.limits[0].max - 0.002, up[0] + 0.008);
     if (Status s = move_to(hub, up); !s) return s.error();
   }
-  run.robot_s = static_cast<double>(device_s) / 1e6;
+  run.robot_s = robot_s();
 
   say(o, "fit");
   const auto f0 = std::chrono::steady_clock::now();

@@ -71,7 +71,8 @@ Result<CameraFrame> NetCamera::grab(int width_px, int height_px) {
     char chunk[65536];
     while (buf_.size() < want) {
       pollfd p{fd_, POLLIN, 0};
-      if (::poll(&p, 1, 2000) != 1) return false;
+      // a big picture rendered by a busy machine's emulator can take seconds
+      if (::poll(&p, 1, 10000) != 1) return false;
       const ssize_t n = ::recv(fd_, chunk, sizeof chunk, 0);
       if (n <= 0) return false;
       buf_.append(chunk, static_cast<std::size_t>(n));
@@ -80,7 +81,7 @@ Result<CameraFrame> NetCamera::grab(int width_px, int height_px) {
   };
   std::size_t nl;
   while ((nl = buf_.find('\n')) == std::string::npos) {
-    if (!fill(buf_.size() + 1)) return Error{1, "camera: no reply to grab"};
+    if (!fill(buf_.size() + 1)) return Error{1, "camera: no reply to grab within 10 s"};
   }
   const std::string header = buf_.substr(0, nl);
   buf_.erase(0, nl + 1);

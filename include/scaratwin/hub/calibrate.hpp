@@ -36,7 +36,8 @@ class CalibrationOperator {
 };
 
 struct CalibrationOptions {
-  int marker_poses = 36;
+  int marker_poses = 24;
+  int touch_offs = 4;   // of the marks of touch_marks(), in their order (at most 6)
   int width_px = 1280;  // the webcam's pictures for calibration
   int height_px = 960;
   double settle_s = 0.25;  // rest before a picture
@@ -63,19 +64,25 @@ bool is_calibrated(const RobotModel& model);
 double seeded_uniform(std::uint64_t& state, double lo, double hi);
 
 // Unidirectional positioning: a quick move to `target` less `dir` x 1.5 deg on J2 and J3 (and
-// 1 mm on Z), then a slow last 1.5 deg towards it (Z and J2, then J3 alone). A belt drive comes to
+// 0.25 mm on Z), then a slow last 1.5 deg towards it (Z and J2, then J3 alone). A belt drive comes to
 // rest on one flank of its dead band only when the last motion was slow: after a fast move the
 // arm's own momentum and the other link's reaction can leave it on either. `dir` (+1 / -1 per
 // stepper joint) is then the side each joint rests on.
 Status approach(Hub& hub, const JointVector& target, const MotionDirections& dir);
 
-// The marks of the touch-offs: two corners of each tray, at the height the tool point has
-// when the jaws' tips touch the table.
+// The marks of the touch-offs: crosses on the mat clear of the trays, in the order that
+// spreads the first few over the workspace, at the height of the tool point on its gauge.
 std::vector<std::pair<std::string, std::array<double, 3>>> touch_marks(const RobotModel& model);
 
-// The marker poses (firmware joints): seeded, inside the joint limits with a margin, in
-// view of the camera, alternating the elbow, spread in height and wrist angle.
-std::vector<JointVector> marker_poses(const RobotModel& model, int count, std::uint64_t seed);
+// The marker poses (firmware joints): seeded, inside the joint limits with a margin, both
+// markers well inside the picture of `camera` (the webcam as the pattern calibrated it),
+// both elbows, spread in height and wrist angle; in visiting_order().
+// Poses in the order that keeps the robot's moves short: one elbow configuration, then the
+// other, each visited nearest first (by the time a quintic move to it takes), from home.
+std::vector<JointVector> visiting_order(const RobotModel& model, std::vector<JointVector> poses);
+
+std::vector<JointVector> marker_poses(const RobotModel& model, const WebcamModel& camera,
+                                      int count, std::uint64_t seed);
 
 // Runs the routine on the connected robot (homes it first). The hub's description must be a
 // base description, not a calibrated overlay.
