@@ -18,6 +18,7 @@
 #include "scaratwin/hub/report.hpp"
 #include "scaratwin/kinematics/kinematics.hpp"
 #include "scaratwin/plant/plant.hpp"
+#include "scaratwin/plant/plant_camera.hpp"
 #include "scaratwin/trajectory/trajectory.hpp"
 #include "scaratwin/vision/webcam.hpp"
 
@@ -46,14 +47,15 @@ Status EmulatedOperator::touch_off(Hub& hub, const std::string& name,
                                    const std::array<double, 3>& mark) {
   // look, nudge the tool towards the mark, look again: until it is on it as well as the
   // robot's steps allow
+  // (on within 0.12 mm: about one J2 step at the arm's reach, as well as a person sees it)
   double best = 1e9;
-  for (int i = 0; i < 10; ++i) {
+  for (int i = 0; i < 8; ++i) {
     if (Status s = hub.sleep(0.2); !s) return s;
     auto t = side_.query();
     if (!t) return t.error();
     const std::array<double, 3> tool{t->tool[0], t->tool[1], t->tool[2]};
     const double off = distance(tool, mark);
-    if (off < 0.08e-3 || (off > 0.9 * best && off < 0.3e-3)) return Ok{};
+    if (off < 0.12e-3 || (off > 0.9 * best && off < 0.3e-3)) return Ok{};
     best = std::min(best, off);
     auto now = hub.fresh_physical(2.0);
     if (!now) return now.error();
@@ -165,7 +167,14 @@ std::vector<ToolPose> test_poses(const RobotModel& model, int count, std::uint64
                uni(20 * kDeg, 160 * kDeg)};
     auto q = inverse(model, p, model.home);
     if (!q) continue;
-    if (first_joint_outside_limits(model, *q) >= 0) continue;
+    // a margin inside the limits: the calibrated robot's joints for the pose differ a little
+    bool inside = true;
+    for (int j = 0; j < kNumJoints; ++j) {
+      const double margin = j == 0 ? 0.002 : 3.0 * kDeg;
+      inside = inside && (*q)[j] >= model.limits[j].min + margin &&
+               (*q)[j] <= model.limits[j].max - margin;
+    }
+    if (!inside) continue;
     out.push_back(p);
   }
   return out;
@@ -175,9 +184,8 @@ Result<std::vector<double>> measure_test_poses(Hub& hub, EmulatorSide& side,
                                                const std::vector<ToolPose>& poses) {
   std::vector<double> out;
   for (const ToolPose& p : poses) {
-    auto now = hub.fresh_physical(2.0);
-    if (!now) return now.error();
-    auto q = inverse(hub.model(), p, now->q);
+    // the elbow test_poses() chose (IK seeded at home), before and after calibration alike
+    auto q = inverse(hub.model(), p, hub.model().home);
     if (!q) return q.error();
     if (Status s = approach(hub, *q, {1, 1, 1}); !s) return s.error();
     if (Status s = hub.sleep(0.3); !s) return s.error();
@@ -190,6 +198,33 @@ Result<std::vector<double>> measure_test_poses(Hub& hub, EmulatorSide& side,
         distance({v.x_m, v.y_m, v.z_m}, {truth->tool[0], truth->tool[1], truth->tool[2]}));
   }
   return out;
+}
+
+std::vector<CalibrationParameter> compare_parameters(const RobotModel& description,
+                                                    const calib::Fit& fit,
+                                                    const std::vector<MeasuredJoints>& samples) {
+  const auto identified = identified_parameters(description, fit);
+  const auto truth = true_parameters(description, samples);
+  const auto drawn = drawn_parameters(description);
+  std::vector<CalibrationParameter> out;
+  for (int i = 0; i < calib::kParamCount; ++i) {
+    const auto& info = calib::param_info(i);
+    out.push_back({std::string(info.key), identified[i] / info.to_si,
+                   fit.std_error[i] / info.to_si, truth[i] / info.to_si, drawn[i] / info.to_si});
+  }
+  return out;
+}
+
+void print_comparison(const std::vector<CalibrationParameter>& params) {
+  fmt::print("    against the robot as built (the emulator's truth; the camera as the change from "
+             "the description's):\n");
+  fmt::print("    {:<22} {:>11} {:>9} {:>11} {:>7} {:>11}\n", "parameter", "identified",
+             "std error", "true", "off/se", "as drawn");
+  for (const CalibrationParameter& p : params) {
+    const double z = std::abs(p.identified - p.truth) / p.std_error;
+    fmt::print("    {:<22} {:>11.4f} {:>9.4f} {:>11.4f} {:>7.1f} {:>11.4f}\n", p.key, p.identified,
+               p.std_error, p.truth, z, p.drawn);
+  }
 }
 
 Result<CalibrationFigures> calibration_phase(Hub& hub, EmulatorSide& side, NetCamera& camera,
@@ -207,6 +242,8 @@ Result<CalibrationFigures> calibration_phase(Hub& hub, EmulatorSide& side, NetCa
     fmt::print("    {}\n", line);
     std::fflush(stdout);
   };
+  TruthLog truth_log(side, overlay.parent_path() / "calibration-truth.csv");
+  truth_log.attach(co);
   auto cal = calibrate_and_write(hub, camera, op, base_config, overlay, co);
   if (!cal) return cal.error();
   hub.set_model(cal->calibrated);
@@ -222,12 +259,8 @@ Result<CalibrationFigures> calibration_phase(Hub& hub, EmulatorSide& side, NetCa
   cf.fit_s = cal->fit.fit_seconds;
   cf.pixel_rms = cal->fit.pixel_rms;
   cf.overlay = overlay.string();
-  const auto truth = true_parameters(base);
-  for (int i = 0; i < calib::kParamCount; ++i) {
-    const auto& info = calib::param_info(i);
-    cf.parameters.push_back({std::string(info.key), cal->fit.value[i] / info.to_si,
-                             cal->fit.std_error[i] / info.to_si, truth[i] / info.to_si});
-  }
+  cf.parameters = compare_parameters(base, cal->fit, truth_log.samples());
+  print_comparison(cf.parameters);
   fmt::print(
       "    virtual -> true tool at {} test poses: before mean {:.2f} p95 {:.2f} max {:.2f} mm; "
       "after mean {:.2f} p95 {:.2f} max {:.2f} mm\n",
@@ -237,11 +270,86 @@ Result<CalibrationFigures> calibration_phase(Hub& hub, EmulatorSide& side, NetCa
   hub.record_metric(metric::kCalibBeforeMaxMm, m_to_mm(cf.before.max_m), "mm");
   hub.record_metric(metric::kCalibAfterMeanMm, m_to_mm(cf.after.mean_m), "mm");
   hub.record_metric(metric::kCalibAfterMaxMm, m_to_mm(cf.after.max_m), "mm");
+  for (const CalibrationParameter& p : cf.parameters) {
+    const std::string name = metric::kCalibParamPrefix + p.key;
+    hub.record_metric(name, p.identified, "");
+    hub.record_metric(name + ".se", p.std_error, "");
+    if (!std::isnan(p.truth)) hub.record_metric(name + ".true", p.truth, "");
+  }
   return cf;
 }
 
-std::array<double, calib::kParamCount> true_parameters(const RobotModel& description) {
-  using calib::Param;
+TruthLog::TruthLog(EmulatorSide& side, const std::filesystem::path& csv) : side_(side) {
+  csv_ = std::fopen(csv.c_str(), "w");
+  if (csv_) {
+    std::fputs(
+        "kind,q_fw0,q_fw1,q_fw2,q_fw3,dir1,dir2,true0,true1,true2,true3,axis_col,axis_row,flag_"
+        "col,flag_row,tool_x,tool_y,tool_z\n",
+        csv_);
+  }
+}
+
+TruthLog::~TruthLog() {
+  if (csv_) std::fclose(csv_);
+}
+
+void TruthLog::attach(CalibrationOptions& o) {
+  o.on_measurement = [this](const calib::MarkerView* v, const calib::TouchOff* t) {
+    auto tr = side_.query();
+    if (!tr) return;
+    const JointVector& q = v ? v->q_fw : t->q_fw;
+    const calib::Directions& d = v ? v->dir : t->dir;
+    samples_.push_back({q, d, tr->q});
+    if (!csv_) return;
+    std::fprintf(
+        csv_,
+        "%s,%.9g,%.9g,%.9g,%.9g,%d,%d,%.9g,%.9g,%.9g,%.9g,%.4f,%.4f,%.4f,%.4f,%.9g,%.9g,%.9g\n",
+        v ? "marker" : "touch", q[0], q[1], q[2], q[3], d[1], d[2], tr->q[0], tr->q[1], tr->q[2],
+        tr->q[3], v && v->axis_px ? (*v->axis_px)[0] : -1.0,
+        v && v->axis_px ? (*v->axis_px)[1] : -1.0, v && v->flag_px ? (*v->flag_px)[0] : -1.0,
+        v && v->flag_px ? (*v->flag_px)[1] : -1.0, tr->tool[0], tr->tool[1], tr->tool[2]);
+    std::fflush(csv_);
+  };
+}
+
+namespace {
+
+using calib::Param;
+
+// The webcam of the emulated robot as built: the as-built mount, and its lens (the emulator's
+// radial distortion, normalised by the picture's half-height, is the webcam model's k1 over
+// tan^2 of half the field of view).
+WebcamModel built_webcam(const RobotModel& description, const AsBuilt& a) {
+  const CameraModel cam = plant::as_built_robot(description, a).scene.camera;
+  WebcamModel w = nominal_webcam(cam);
+  const double t = std::tan(0.5 * deg_to_rad(cam.fovy_deg));
+  w.k1 = plant::LensModel{}.k1 / (t * t);
+  return w;
+}
+
+void set_camera(std::array<double, calib::kParamCount>& t, const WebcamParams& d) {
+  for (int i = 0; i < kWebcamParams; ++i) t[calib::kRobotParams + i] = d[i];
+}
+
+// Least squares of y = a + b x; nullopt with fewer than 2 distinct x.
+std::optional<std::array<double, 2>> line_fit(const std::vector<std::array<double, 2>>& xy) {
+  double n = 0, sx = 0, sy = 0, sxx = 0, sxy = 0;
+  for (const auto& [x, y] : xy) {
+    n += 1;
+    sx += x;
+    sy += y;
+    sxx += x * x;
+    sxy += x * y;
+  }
+  const double det = n * sxx - sx * sx;
+  if (n < 2 || !(std::abs(det) > 1e-18)) return std::nullopt;
+  const double b = (n * sxy - sx * sy) / det;
+  return std::array<double, 2>{(sy - b * sx) / n, b};
+}
+
+}  // namespace
+
+std::array<double, calib::kParamCount> drawn_parameters(const RobotModel& description) {
   const AsBuilt a = draw_as_built(description.physical.as_built);
   std::array<double, calib::kParamCount> t{};
   auto set = [&t](Param p, double v) { t[static_cast<int>(p)] = v; };
@@ -256,18 +364,60 @@ std::array<double, calib::kParamCount> true_parameters(const RobotModel& descrip
   set(Param::kJawOffset, a[AsBuiltParam::kJawOffset]);
   set(Param::kJ2Backlash, a[AsBuiltParam::kJ2Backlash]);
   set(Param::kJ3Backlash, a[AsBuiltParam::kJ3Backlash]);
-  // the camera: the as-built mount against the description's, as the fit's adjustments
-  const WebcamModel nominal = nominal_webcam(description.scene.camera);
-  const WebcamModel built = nominal_webcam(plant::as_built_robot(description, a).scene.camera);
-  for (int i = 0; i < 3; ++i) t[calib::kRobotParams + i] = built.pos_m[i] - nominal.pos_m[i];
-  using M = Eigen::Matrix<double, 3, 3, Eigen::RowMajor>;
-  const Eigen::Matrix3d rel =
-      Eigen::Map<const M>(nominal.r_bc.data()).transpose() * Eigen::Map<const M>(built.r_bc.data());
-  const Eigen::AngleAxisd aa(rel);
-  const Eigen::Vector3d rv = aa.angle() * aa.axis();
-  for (int i = 0; i < 3; ++i) t[calib::kRobotParams + 3 + i] = rv[i];
-  set(Param::kCamFocal, 0.0);        // the plant's camera has the description's field of view
-  set(Param::kCamK1, std::nan(""));  // its lens is a different model: no single true k1
+  set_camera(t, adjustment(nominal_webcam(description.scene.camera), built_webcam(description, a)));
+  return t;
+}
+
+std::array<double, calib::kParamCount> true_parameters(const RobotModel& description,
+                                                       const std::vector<MeasuredJoints>& samples) {
+  std::array<double, calib::kParamCount> t = drawn_parameters(description);
+  auto set = [&t](Param p, double v) { t[static_cast<int>(p)] = v; };
+  for (Param p : {Param::kZOffset, Param::kZScale, Param::kJ2Zero, Param::kJ3Zero,
+                  Param::kWristOffset, Param::kWristGain, Param::kJ2Backlash,
+                  Param::kJ3Backlash}) {
+    set(p, std::nan(""));
+  }
+  // Z: true - counts = offset + scale (counts - switch)
+  const double sw = description.endstops.closes_at[0];
+  std::vector<std::array<double, 2>> z, wrist;
+  for (const MeasuredJoints& s : samples) {
+    z.push_back({s.q_fw[0] - sw, s.q_true[0] - s.q_fw[0]});
+    wrist.push_back({s.q_fw[3], s.q_true[3] - s.q_fw[3]});
+  }
+  if (auto l = line_fit(z)) {
+    set(Param::kZOffset, (*l)[0]);
+    set(Param::kZScale, (*l)[1]);
+  }
+  if (auto l = line_fit(wrist)) {
+    set(Param::kWristOffset, (*l)[0]);
+    set(Param::kWristGain, (*l)[1]);
+  }
+  // a belt joint: where it rests after moving up (o_up) and down (o_down); the dead band is
+  // their difference, and the zero is the joint map's (calibration.hpp: at the switch the
+  // drive is half a band past the joint, then trails it by half a band)
+  for (int j = 1; j <= 2; ++j) {
+    double up = 0, down = 0;
+    int n_up = 0, n_down = 0;
+    for (const MeasuredJoints& s : samples) {
+      const double off = s.q_true[j] - s.q_fw[j];
+      if (s.dir[j] > 0) up += off, ++n_up;
+      if (s.dir[j] < 0) down += off, ++n_down;
+    }
+    if (n_up == 0 || n_down == 0) continue;
+    up /= n_up;
+    down /= n_down;
+    const double band = down - up;
+    const double hd = description.endstops.homing_dir[j];
+    set(j == 1 ? Param::kJ2Backlash : Param::kJ3Backlash, band);
+    set(j == 1 ? Param::kJ2Zero : Param::kJ3Zero, up - 0.5 * hd * band + 0.5 * band);
+  }
+  return t;
+}
+
+std::array<double, calib::kParamCount> identified_parameters(const RobotModel& description,
+                                                             const calib::Fit& fit) {
+  std::array<double, calib::kParamCount> t = fit.value;
+  set_camera(t, adjustment(nominal_webcam(description.scene.camera), fit.camera));
   return t;
 }
 

@@ -5,6 +5,7 @@
 #pragma once
 
 #include <array>
+#include <cstdio>
 #include <filesystem>
 #include <optional>
 #include <string>
@@ -55,9 +56,53 @@ std::vector<ToolPose> test_poses(const RobotModel& model, int count, std::uint64
 Result<std::vector<double>> measure_test_poses(Hub& hub, EmulatorSide& side,
                                                const std::vector<ToolPose>& poses);
 
-// The true as-built values of the fit's parameters for the emulated robot built from
-// `description` (report only: the truth of the build, never given to the twin).
-std::array<double, calib::kParamCount> true_parameters(const RobotModel& description);
+// One measurement of the routine beside the emulator's truth: the firmware's joints, the
+// side each joint came from, and the true joints there.
+struct MeasuredJoints {
+  JointVector q_fw{};
+  calib::Directions dir{};
+  JointVector q_true{};
+};
+
+// Logs each measurement of the routine beside the truth (CSV, one line per measurement, for
+// the record) and keeps the samples. A measuring instrument: never given to the fit.
+class TruthLog {
+ public:
+  TruthLog(EmulatorSide& side, const std::filesystem::path& csv);
+  ~TruthLog();
+  TruthLog(const TruthLog&) = delete;
+  TruthLog& operator=(const TruthLog&) = delete;
+  void attach(CalibrationOptions& options);  // sets its on_measurement
+  const std::vector<MeasuredJoints>& samples() const { return samples_; }
+
+ private:
+  EmulatorSide& side_;
+  std::FILE* csv_ = nullptr;
+  std::vector<MeasuredJoints> samples_;
+};
+
+// The true values of the fit's parameters for the emulated robot built from `description`
+// (report and tests only, never given to the twin), in the fit's units:
+// - the joint map as the truth measured it at the routine's poses: where each joint rests
+//   against the firmware's counts, from each side of its dead band (so it includes what the
+//   build's parameters alone do not say: a switch closing between two steps, a joint coasting
+//   into its dead band); NaN without samples;
+// - the links and the jaw as the build drew them;
+// - the webcam as built, as the change from the description's (adjustment()).
+std::array<double, calib::kParamCount> true_parameters(const RobotModel& description,
+                                                       const std::vector<MeasuredJoints>& samples);
+// The build's drawn parameters themselves, in the fit's units (the camera as above).
+std::array<double, calib::kParamCount> drawn_parameters(const RobotModel& description);
+// The fit's values in the units of true_parameters (the camera as the change from the
+// description's camera rather than from the pattern's).
+std::array<double, calib::kParamCount> identified_parameters(const RobotModel& description,
+                                                             const calib::Fit& fit);
+
+// Each parameter identified beside the truth and the draw (key units), and the table printed.
+std::vector<CalibrationParameter> compare_parameters(const RobotModel& description,
+                                                    const calib::Fit& fit,
+                                                    const std::vector<MeasuredJoints>& samples);
+void print_comparison(const std::vector<CalibrationParameter>& params);
 
 // The demo's calibration step with the emulated robot: the test poses as the description is,
 // the routine and its overlay (written to `overlay`), the hub switched to the calibrated

@@ -3,6 +3,7 @@
 #include <cstdio>
 #include <filesystem>
 #include <memory>
+#include <optional>
 
 #include <fmt/format.h>
 
@@ -21,7 +22,8 @@ struct CalibrateArgs {
   std::string out = "scaratwin-calibration";
   std::string output;
   double robot_speed = 1.0;
-  int poses = 36;
+  int poses = 24;
+  int touch_offs = 4;
   unsigned seed = 1;
   long long as_built_seed = -1;
 };
@@ -29,6 +31,8 @@ struct CalibrateArgs {
 int run_calibrate(const CommonOptions& common, const CalibrateArgs& a) {
   auto model = load_model(common);
   if (!model) return kExitUsage;
+  // the emulated robot's build (the twin never reads it; the comparison at the end does)
+  if (a.as_built_seed >= 0) model->physical.as_built.seed = static_cast<std::uint64_t>(a.as_built_seed);
   if (is_calibrated(*model)) {
     std::fprintf(stderr,
                  "scaratwin calibrate: --config names a calibrated description; calibrate with "
@@ -92,38 +96,21 @@ int run_calibrate(const CommonOptions& common, const CalibrateArgs& a) {
   }
   CalibrationOptions co;
   co.marker_poses = a.poses;
+  co.touch_offs = a.touch_offs;
   co.seed = a.seed;
   co.progress = [](const std::string& line) {
     fmt::print("==> {}\n", line);
     std::fflush(stdout);
   };
   // with the emulated robot: each measurement beside the truth (a measuring instrument for
-  // the record, never given to the fit)
-  std::FILE* log = nullptr;
+  // the record and the comparison printed at the end, never given to the fit)
+  std::optional<TruthLog> truth;
   if (rig->side) {
-    log = std::fopen((fs::path(a.out) / "calibration-truth.csv").c_str(), "w");
-    if (log)
-      std::fputs(
-          "kind,q_fw0,q_fw1,q_fw2,q_fw3,dir1,dir2,true0,true1,true2,true3,axis_col,axis_row,flag_"
-          "col,flag_row,tool_x,tool_y,tool_z\n",
-          log);
-    co.on_measurement = [&](const calib::MarkerView* v, const calib::TouchOff* t) {
-      auto tr = rig->side->query();
-      if (!log || !tr) return;
-      const JointVector& q = v ? v->q_fw : t->q_fw;
-      const calib::Directions& d = v ? v->dir : t->dir;
-      std::fprintf(
-          log,
-          "%s,%.9g,%.9g,%.9g,%.9g,%d,%d,%.9g,%.9g,%.9g,%.9g,%.4f,%.4f,%.4f,%.4f,%.9g,%.9g,%.9g\n",
-          v ? "marker" : "touch", q[0], q[1], q[2], q[3], d[1], d[2], tr->q[0], tr->q[1], tr->q[2],
-          tr->q[3], v && v->axis_px ? (*v->axis_px)[0] : -1.0,
-          v && v->axis_px ? (*v->axis_px)[1] : -1.0, v && v->flag_px ? (*v->flag_px)[0] : -1.0,
-          v && v->flag_px ? (*v->flag_px)[1] : -1.0, tr->tool[0], tr->tool[1], tr->tool[2]);
-      std::fflush(log);
-    };
+    truth.emplace(*rig->side, fs::path(a.out) / "calibration-truth.csv");
+    truth->attach(co);
   }
   auto run = calibrate_and_write(**hub, *rig->webcam, *op, base, overlay, co);
-  if (log) std::fclose(log);
+  if (run && truth) print_comparison(compare_parameters(*model, run->fit, truth->samples()));
   hub->reset();
   rig->stop();
   if (!run) {
@@ -147,6 +134,9 @@ void add_calibrate_command(CLI::App& app, CommonOptions& common, Runner& run) {
   cmd->add_option("--output", a->output,
                   "the overlay to write (default: <base description>.calibrated.toml beside it)");
   cmd->add_option("--out", a->out, "folder for the logs")->capture_default_str();
+  cmd->add_option("--touch-offs", a->touch_offs, "touch-offs (marks on the mat)")
+      ->capture_default_str()
+      ->check(CLI::Range(3, 6));
   cmd->add_option("--poses", a->poses, "marker poses")
       ->capture_default_str()
       ->check(CLI::Range(12, 500));

@@ -56,7 +56,7 @@ struct DemoArgs {
   double robot_speed = 1.0;
   unsigned seed = 7;
   double mirror_s = 6.0;
-  bool calibrate = false;
+  bool calibrate = true;
   long long as_built_seed = -1;  // the emulated robot's build (-1: the description's)
   // set by run_demo
   std::string base_config;
@@ -588,9 +588,10 @@ void add_demo_command(CLI::App& app, CommonOptions& common, Runner& run) {
                   "emulated robot: emulated seconds per wall second (1 = real time)")
       ->capture_default_str();
   cmd->add_option("--seed", a->seed, "seed of the cube layout")->capture_default_str();
-  cmd->add_flag("--calibrate", a->calibrate,
-                "calibrate after homing (emulated robot as built): the twin measures the robot "
-                "and runs on the calibrated description (docs/calibration.md)");
+  cmd->add_flag("--calibrate,!--no-calibrate", a->calibrate,
+                "calibrate after homing (the default with the emulated robot as built): the twin "
+                "measures the robot and runs on the calibrated description "
+                "(docs/calibration.md); --no-calibrate runs on the description as it is");
   cmd->add_option("--as-built-seed", a->as_built_seed,
                   "emulated robot: the seed of its build (default: the description's)")
       ->check(CLI::Range(0LL, 2147483647LL));

@@ -60,7 +60,8 @@ Status write_results(const std::filesystem::path& path, const std::string& plant
     for (const CalibrationParameter& p : c.parameters) {
       params[p.key] = json{{"identified", p.identified},
                            {"std_error", p.std_error},
-                           {"true", std::isnan(p.truth) ? json(nullptr) : json(p.truth)}};
+                           {"true", std::isnan(p.truth) ? json(nullptr) : json(p.truth)},
+                           {"drawn", std::isnan(p.drawn) ? json(nullptr) : json(p.drawn)}};
     }
     j["calibration"] = json{{"before_mm", stats(c.before)}, {"after_mm", stats(c.after)},
                             {"test_poses", c.test_poses}, {"fit_poses", c.fit_poses},

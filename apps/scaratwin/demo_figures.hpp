@@ -22,7 +22,9 @@ namespace scaratwin::cli {
 // and after, and each identified parameter beside the true build.
 struct CalibrationParameter {
   std::string key;  // with its unit (calibration::param_info)
-  double identified = 0.0, std_error = 0.0, truth = 0.0;  // in the key's unit (truth NaN: none)
+  // in the key's unit: the fit's value, its standard error, the truth (NaN: not measured) and
+  // the build's drawn parameter (calibrate_step.hpp: true_parameters, drawn_parameters)
+  double identified = 0.0, std_error = 0.0, truth = 0.0, drawn = 0.0;
 };
 struct CalibrationFigures {
   ToolErrorStats before, after;

@@ -2,6 +2,7 @@
 
 #include <ctime>
 #include <fstream>
+#include <cmath>
 #include <map>
 
 #include <fmt/format.h>
@@ -84,9 +85,39 @@ std::string metrics_table(const std::vector<MetricRecord>& metrics) {
   if (metrics.empty()) return "";
   std::string out = "<table><tr><th>figure</th><th>value</th><th>unit</th></tr>\n";
   for (const MetricRecord& m : metrics) {
+    if (m.name.starts_with(metric::kCalibParamPrefix)) continue;  // their own table
     out += fmt::format("<tr><td>{}</td><td>{:.4g}</td><td>{}</td></tr>\n", m.name, m.value, m.unit);
   }
   return out + "</table>\n";
+}
+
+// The identified parameters beside the truth (metric::kCalibParamPrefix), if calibrated.
+std::string calibration_table(const std::map<std::string, std::vector<double>>& all) {
+  const std::string prefix = metric::kCalibParamPrefix;
+  std::string rows;
+  for (const auto& [name, v] : all) {
+    if (!name.starts_with(prefix) || name.ends_with(".se") || name.ends_with(".true")) continue;
+    auto value_of = [&all](const std::string& n) {
+      auto it = all.find(n);
+      return it == all.end() || it->second.empty() ? std::nan("") : it->second.back();
+    };
+    const double se = value_of(name + ".se"), truth = value_of(name + ".true");
+    const double off = std::abs(v.back() - truth) / se;
+    rows += fmt::format(
+        "<tr><td>{}</td><td>{:.4f}</td><td>{:.4f}</td><td>{}</td><td>{}</td></tr>\n",
+        name.substr(prefix.size()), v.back(), se,
+        std::isnan(truth) ? "not measured" : fmt::format("{:.4f}", truth),
+        std::isnan(off) ? "" : fmt::format("{:.1f}", off));
+  }
+  if (rows.empty()) return "";
+  return "<h2>Calibration: the robot as identified and as built</h2>\n<table><tr><th>parameter "
+         "(unit in its name)</th><th>identified</th><th>std error</th><th>true (emulator)</th>"
+         "<th>|off| / std error</th></tr>\n" +
+         rows +
+         "</table>\n<p class='note'>Deviations from the base description; the camera as the "
+         "change from the description's. True: the joint map as the emulator's truth measured "
+         "it at the routine's poses, the links as the build drew them (docs/calibration.md).</p>"
+         "\n";
 }
 
 struct PaperRow {
@@ -175,6 +206,8 @@ Status write_report(TwinDb& db, const RobotModel& model, int64_t run_id,
       "7183 (Unity3D + MATLAB + Arduino, AMD 5600U). Our latency is measured per frame from "
       "sequence numbers and timestamps; the emulator's ground truth comes from the "
       "firmware's STEP/DIR pins.</p>\n";
+
+  body += calibration_table(all);
 
   for (const RunInfo& r : runs) {
     auto virt = db.samples(r.id, SampleSource::kVirtual);

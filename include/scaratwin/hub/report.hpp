@@ -40,6 +40,10 @@ inline constexpr const char* kCalibBeforeMeanMm = "calibration_before_mean_mm";
 inline constexpr const char* kCalibBeforeMaxMm = "calibration_before_max_mm";
 inline constexpr const char* kCalibAfterMeanMm = "calibration_after_mean_mm";
 inline constexpr const char* kCalibAfterMaxMm = "calibration_after_max_mm";
+// each identified parameter: `calibration.<key>` (the value), `calibration.<key>.se` (its
+// standard error) and `calibration.<key>.true` (the truth, emulated robot only); the report
+// tables them together
+inline constexpr const char* kCalibParamPrefix = "calibration.";
 }  // namespace metric
 
 // Writes the report of `run` (and of the runs whose parent it is) to `html`.
