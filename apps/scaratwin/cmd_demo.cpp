@@ -55,6 +55,7 @@ struct DemoArgs {
   int http_port = 8080;
   double robot_speed = 1.0;
   unsigned seed = 7;
+  int cubes = kNumColors;  // cubes to sort: red, green, blue, the first `cubes` of them
   double mirror_s = 6.0;
   bool calibrate = true;
   long long as_built_seed = -1;  // the emulated robot's build (-1: the description's)
@@ -71,13 +72,13 @@ void step(int n, int total, const std::string& what) {
   std::fflush(stdout);
 }
 
-// Spawn positions for the three cubes: seeded, apart from each other, on the free side of
-// the table (the trays are on the -y side).
-std::vector<SortItem> cube_layout(unsigned seed) {
+// Spawn positions for the cubes (one of each colour, in colour order, up to three): seeded,
+// apart from each other, on the free side of the table (the trays are on the -y side).
+std::vector<SortItem> cube_layout(unsigned seed, int cubes) {
   std::mt19937 rng(seed);
   std::uniform_real_distribution<double> x(0.14, 0.22), y(0.03, 0.12);
   std::vector<SortItem> out;
-  for (int c = 0; c < kNumColors; ++c) {
+  for (int c = 0; c < cubes; ++c) {
     for (int tries = 0; tries < 1000; ++tries) {
       const SortItem it{static_cast<CubeColor>(c), x(rng), y(rng), 0.0};
       bool clear = true;
@@ -254,7 +255,7 @@ Result<DemoOutcome> run_phases(Hub& hub, TwinDb& db, const DemoArgs& a, std::int
 
   // 4. prediction: the sorting task in the simulator with physics.
   step(4, kSteps, "digital prediction: camera shot, colour recognition, sorting simulated");
-  const std::vector<SortItem> layout = cube_layout(a.seed);
+  const std::vector<SortItem> layout = cube_layout(a.seed, a.cubes);
   std::vector<SortItem> where = layout;  // where the virtual twins of the cubes go
   SortPlan plan;
   std::int64_t prediction = 0;
@@ -525,7 +526,7 @@ int run_demo(const CommonOptions& common, const DemoArgs& a) {
   const Instruments inst{rig.side ? &*rig.side : nullptr, rig.truth.get(), rig.webcam.get()};
   auto outcome = run_phases(**hub, **db, args, *demo, inst);
   const double dur = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-  const bool ok = outcome && physical_ok(*outcome, kNumColors);
+  const bool ok = outcome && physical_ok(*outcome, static_cast<std::size_t>(a.cubes));
   if (outcome) {
     if (Status s = write_results(out / "results.json", plant, *outcome); !s) {
       std::fprintf(stderr, "scaratwin demo: %s\n", s.error().message.c_str());
@@ -552,11 +553,12 @@ int run_demo(const CommonOptions& common, const DemoArgs& a) {
   fmt::print("database: {} (run {}; `scaratwin report {} --db {}`), CSV in {}\n",
              (out / "twin.db").string(), *demo, *demo, (out / "twin.db").string(),
              (out / "csv").string());
-  fmt::print("demo {} in {:.0f} s: {} of 3 cubes in their trays{}\n", ok ? "passed" : "FAILED", dur,
+  fmt::print("demo {} in {:.0f} s: {} of {} cubes in their trays{}\n", ok ? "passed" : "FAILED",
+             dur,
              outcome ? (outcome->physical_in_trays >= 0 ? outcome->physical_in_trays
                                                         : outcome->in_trays_replay)
                      : 0,
-             outcome && outcome->physical_in_trays >= 0 ? " (the physical cubes)" : "");
+             a.cubes, outcome && outcome->physical_in_trays >= 0 ? " (the physical cubes)" : "");
   std::fflush(stdout);
   if (a.keep_open) {
     fmt::print("--keep-open: the simulator and its UI keep running; Ctrl-C to stop\n");
@@ -588,6 +590,10 @@ void add_demo_command(CLI::App& app, CommonOptions& common, Runner& run) {
                   "emulated robot: emulated seconds per wall second (1 = real time)")
       ->capture_default_str();
   cmd->add_option("--seed", a->seed, "seed of the cube layout")->capture_default_str();
+  cmd->add_option("--cubes", a->cubes,
+                  "cubes to sort (red, then green, then blue); --cubes 1 is the short demo")
+      ->check(CLI::Range(1, kNumColors))
+      ->capture_default_str();
   cmd->add_flag("--calibrate,!--no-calibrate", a->calibrate,
                 "calibrate after homing (the default with the emulated robot as built): the twin "
                 "measures the robot and runs on the calibrated description "

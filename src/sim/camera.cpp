@@ -26,6 +26,13 @@ Error render_error(std::string message) {
   return Error{static_cast<int>(SimError::kRender), std::move(message)};
 }
 
+// What a machine without Mesa's EGL vendor library or its software rasterizer lacks (libglvnd
+// loads them at run time, so no linked library names them).
+constexpr const char* kInstallMesa =
+    ": the camera renders through Mesa's EGL and software rasterizer; install libegl-mesa0 "
+    "and libgl1-mesa-dri (or run without the camera: scaratwin-sim --no-camera, "
+    "scaratwin-robot --camera-port -1)";
+
 // The process's EGL display on Mesa's surfaceless platform, initialised once. EGL returns the
 // same display to every caller, so terminating it would break other cameras.
 Result<EGLDisplay> shared_display() {
@@ -36,13 +43,13 @@ Result<EGLDisplay> shared_display() {
   auto get_platform_display = reinterpret_cast<PFNEGLGETPLATFORMDISPLAYEXTPROC>(
       eglGetProcAddress("eglGetPlatformDisplayEXT"));
   if (get_platform_display == nullptr) {
-    return render_error("EGL has no eglGetPlatformDisplayEXT (install libegl-mesa0)");
+    return render_error(fmt::format("EGL has no eglGetPlatformDisplayEXT{}", kInstallMesa));
   }
   EGLDisplay d = get_platform_display(EGL_PLATFORM_SURFACELESS_MESA, EGL_DEFAULT_DISPLAY, nullptr);
   EGLint major = 0, minor = 0;
   if (d == EGL_NO_DISPLAY || eglInitialize(d, &major, &minor) != EGL_TRUE) {
-    return render_error(
-        fmt::format("EGL surfaceless display unavailable (EGL error 0x{:x})", eglGetError()));
+    return render_error(fmt::format("EGL surfaceless display unavailable (EGL error 0x{:x}){}",
+                                    eglGetError(), kInstallMesa));
   }
   display = d;
   return display;
