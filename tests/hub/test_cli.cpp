@@ -240,7 +240,9 @@ TEST(Cli, AScriptWithASyntaxErrorOnItsLastLineMovesNothing) {
   EXPECT_EQ(t.at("z"), "20000");
   EXPECT_EQ(t.at("j2"), "-300");
   EXPECT_EQ(t.at("j3"), "500");
-  EXPECT_EQ(t.at("grip_cdeg"), "0") << "the gripper still open";
+  // the gripper still open: its pulse as at power-up, to within the servo interrupt's latency
+  // (a cycle or two of the AVR's other interrupts: 1 cdeg is 0.1 us of pulse; closed is 7500)
+  EXPECT_LE(std::abs(std::stoi(t.at("grip_cdeg"))), 2) << "the gripper still open";
   fs::remove_all(dir);
 }
 
