@@ -29,6 +29,25 @@ constexpr double kDesyncWindowS = 1.5;
 constexpr const char* kInterrupted = "interrupted";
 
 }  // namespace
+// The hub's hello to the simulator: with a token it says it means to control (security.md).
+pr::Hello sim_hello(const HubOptions& o) {
+  const std::string role =
+      !o.sim_role.empty() ? o.sim_role : (o.sim_token.empty() ? "" : "control");
+  return pr::Hello{pr::kProtocolVersion, role, o.sim_token};
+}
+
+// What an ER,18 to the hub's hello means (docs/protocol.md section 6), from the refusal text.
+std::string access_refusal(const std::string& message, const HubOptions& o) {
+  if (message.find("detail 1") != std::string::npos) {
+    return o.sim_token.empty() ? "it needs its access token (--sim-token or SCARATWIN_TOKEN)"
+                               : "wrong access token";
+  }
+  if (message.find("detail 2") != std::string::npos) {
+    return "another client controls it (stop that hub first)";
+  }
+  return message;
+}
+
 
 Hub::Hub(const RobotModel& model, const HubOptions& options, TwinDb* db)
     : model_(model), options_(options), db_(db), report_dir_(homed_directions(model)) {}
@@ -100,8 +119,14 @@ Result<std::unique_ptr<Hub>> Hub::connect(const RobotModel& model, const HubOpti
                                    o.serial_device, o.hello_timeout_s, r.error().message));
     }
   }
-  auto hi = t->sim_->request(pr::Hello{}, ms(o.hello_timeout_s));
-  if (!hi) return hub_error(fmt::format("simulator hello: {}", hi.error().message));
+  auto hi = t->sim_->request(sim_hello(o), ms(o.hello_timeout_s));
+  if (!hi) {
+    if (hi.error().code == pr::kErrAccess) {
+      return hub_error(fmt::format("simulator at {}:{} refused the hub: {}", o.sim_host, o.sim_port,
+                                   access_refusal(hi.error().message, o)));
+    }
+    return hub_error(fmt::format("simulator hello: {}", hi.error().message));
+  }
   auto sr = t->robot_->request(pr::SetReportRate{o.report_rate_hz}, milliseconds(1000));
   if (!sr) return hub_error(fmt::format("set report rate: {}", sr.error().message));
   return t;

@@ -5,7 +5,9 @@
 #include "scaratwin/web/web_server.hpp"
 
 #include <atomic>
+#include <cctype>
 #include <chrono>
+#include <cstdio>
 #include <cstring>
 #include <deque>
 #include <filesystem>
@@ -65,6 +67,49 @@ std::optional<std::filesystem::path> resolve(const std::filesystem::path& root,
   std::string rel(path.substr(1));
   if (rel.empty() || rel.back() == '/') rel += "index.html";
   return root / rel;
+}
+
+// The value of `key` in the query of a request target ("/ws?token=abc" -> "abc").
+std::optional<std::string_view> query_value(std::string_view target, std::string_view key) {
+  const std::size_t q = target.find('?');
+  if (q == std::string_view::npos) return std::nullopt;
+  std::string_view query = target.substr(q + 1);
+  query = query.substr(0, query.find('#'));
+  while (!query.empty()) {
+    const std::size_t amp = query.find('&');
+    const std::string_view pair = query.substr(0, amp);
+    const std::size_t eq = pair.find('=');
+    if (pair.substr(0, eq) == key) {
+      return eq == std::string_view::npos ? std::string_view() : pair.substr(eq + 1);
+    }
+    if (amp == std::string_view::npos) break;
+    query.remove_prefix(amp + 1);
+  }
+  return std::nullopt;
+}
+
+// True when a Host header names this machine (localhost, 127.x.y.z, [::1]), with any port.
+bool local_host(std::string_view host) {
+  std::string_view name = host;
+  if (!name.empty() && name.front() == '[') {
+    name = name.substr(0, name.find(']') + 1);
+  } else {
+    name = name.substr(0, name.find(':'));
+  }
+  std::string lower(name);
+  for (char& c : lower) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+  return lower == "localhost" || lower.rfind("127.", 0) == 0 || lower == "[::1]";
+}
+
+bool iequals(std::string_view a, std::string_view b) {
+  if (a.size() != b.size()) return false;
+  for (std::size_t i = 0; i < a.size(); ++i) {
+    if (std::tolower(static_cast<unsigned char>(a[i])) !=
+        std::tolower(static_cast<unsigned char>(b[i]))) {
+      return false;
+    }
+  }
+  return true;
 }
 
 std::optional<std::string> read_file(const std::filesystem::path& path) {
@@ -239,7 +284,7 @@ struct WebServer::Impl {
       if (ec) co_return;
       http::request<http::string_body> req = parser.release();
       if (websocket::is_upgrade(req)) {
-        if (req.target() != "/ws") {
+        if (path != "/ws") {
           co_await respond(stream, req, http::status::not_found, "text/plain", "no such socket\n");
           co_return;
         }
@@ -261,15 +306,27 @@ struct WebServer::Impl {
     http::response<http::string_body> res{status, req.version()};
     res.set(http::field::server, "scaratwin-sim");
     res.set(http::field::content_type, beast::string_view(type.data(), type.size()));
+      const std::string_view target(req.target().data(), req.target().size());
+      const std::string_view path = target.substr(0, target.find_first_of("?#"));
     res.set(http::field::cache_control, "no-cache");
     res.set("X-Content-Type-Options", "nosniff");
     res.keep_alive(req.keep_alive());
     const bool head = req.method() == http::verb::head;
     res.body() = std::move(body);
+        if (auto refusal = refuse_socket(req, target)) {
+          std::fprintf(stderr, "scaratwin web: refused a WebSocket: %s\n", refusal->c_str());
+          co_await respond(stream, req, http::status::forbidden, "text/plain", *refusal + "\n");
+          co_return;
+        }
     res.prepare_payload();
     if (head) res.body().clear();
     beast::error_code ec;
     if (head) {
+      if (path.rfind("/api/", 0) == 0 && !token_ok(target)) {
+        co_await respond(stream, req, http::status::forbidden, "text/plain",
+                         "this simulator needs its access token: ?token=...\n");
+        co_return;
+      }
       http::response_serializer<http::string_body> sr{res};
       sr.split(true);
       co_await http::async_write_header(stream, sr, asio::redirect_error(use_awaitable, ec));
@@ -278,6 +335,38 @@ struct WebServer::Impl {
     }
     co_return !ec && req.keep_alive();
   }
+  bool token_ok(std::string_view target) const {
+    if (options.token.empty()) return true;
+    const auto given = query_value(target, "token");
+    return given && *given == options.token;
+  }
+
+  // Why a WebSocket upgrade is refused, or nothing. Browsers always send Origin on a
+  // WebSocket: a page of another site (Origin not this page's scheme://Host) may not drive
+  // the simulator; without a token the Host must be this machine, so a hostile name that
+  // resolves to 127.0.0.1 (DNS rebinding) is refused too. Clients that are not browsers send
+  // no Origin.
+  std::optional<std::string> refuse_socket(const http::request<http::string_body>& req,
+                                           std::string_view target) const {
+    const auto host_it = req.find(http::field::host);
+    const std::string_view host =
+        host_it == req.end() ? std::string_view()
+                             : std::string_view(host_it->value().data(), host_it->value().size());
+    if (!token_ok(target)) return "missing or wrong access token (?token=...)";
+    if (options.token.empty() && !local_host(host)) {
+      return fmt::format("Host '{}' is not this machine", host);
+    }
+    const auto origin_it = req.find(http::field::origin);
+    if (origin_it != req.end()) {
+      const std::string_view origin(origin_it->value().data(), origin_it->value().size());
+      if (!iequals(origin, fmt::format("http://{}", host)) &&
+          !iequals(origin, fmt::format("https://{}", host))) {
+        return fmt::format("Origin '{}' is not this page's (http://{})", origin, host);
+      }
+    }
+    return std::nullopt;
+  }
+
 
   asio::awaitable<bool> handle_http(beast::tcp_stream& stream,
                                     const http::request<http::string_body>& req) {
@@ -285,7 +374,8 @@ struct WebServer::Impl {
       co_return co_await respond(stream, req, http::status::method_not_allowed, "text/plain",
                                  "only GET and HEAD\n");
     }
-    const std::string_view target(req.target().data(), req.target().size());
+    const std::string_view full(req.target().data(), req.target().size());
+    const std::string_view target = full.substr(0, full.find_first_of("?#"));
     if (target == "/api/scene") {
       co_return co_await respond(stream, req, http::status::ok, "application/json", scene);
     }

@@ -47,6 +47,10 @@ struct HubOptions {
   unsigned baud = 115200;
   std::string sim_host = "127.0.0.1";
   std::uint16_t sim_port = 55016;
+  std::string sim_token;  // the simulator's access token when it asks for one (security.md)
+  // "observe": the hub only watches the simulator (the stop command, which may run while
+  // another hub controls it); empty: it controls it (one controlling client at a time)
+  std::string sim_role;
   int report_rate_hz = 100;           // robot state reports while connected
   double hello_timeout_s = 5.0;       // a real board spends ~2 s in its bootloader
   double desync_threshold_m = 0.003;  // tool deviation that raises the desync alarm
