@@ -124,7 +124,8 @@ std::optional<std::string> read_file(const std::filesystem::path& path) {
 
 // A WebSocket connection: an ordered queue of outgoing messages written one at a time.
 struct WsSession : std::enable_shared_from_this<WsSession> {
-  explicit WsSession(beast::tcp_stream&& stream) : ws(std::move(stream)) {}
+  WsSession(beast::tcp_stream&& stream, std::size_t max_unread)
+      : ws(std::move(stream)), max_unread_bytes(max_unread) {}
 
   // state frames are droppable: a browser that is behind skips them instead of lagging
   void send(std::shared_ptr<const std::string> message, bool droppable) {
@@ -133,6 +134,20 @@ struct WsSession : std::enable_shared_from_this<WsSession> {
       ++dropped;
       return;
     }
+    if (queued_bytes + message->size() > max_unread_bytes) {
+      // a browser that asks and never reads (issue 17: 300 unread pictures, +60 MB) is cut
+      std::fprintf(stderr,
+                   "scaratwin web: a browser left %zu bytes of replies unread (limit %zu): "
+                   "connection closed\n",
+                   queued_bytes + message->size(), max_unread_bytes);
+      closed = true;
+      queue.clear();
+      queued_bytes = 0;
+      beast::error_code ignored;
+      beast::get_lowest_layer(ws).socket().close(ignored);
+      return;
+    }
+    queued_bytes += message->size();
     queue.push_back(std::move(message));
     if (!writing) write_next();
   }
@@ -142,10 +157,16 @@ struct WsSession : std::enable_shared_from_this<WsSession> {
     ws.text(true);
     ws.async_write(asio::buffer(*queue.front()),
                    [self = shared_from_this()](beast::error_code ec, std::size_t) {
+                     if (self->queue.empty()) {  // cut meanwhile
+                       self->writing = false;
+                       return;
+                     }
+                     self->queued_bytes -= self->queue.front()->size();
                      self->queue.pop_front();
                      if (ec) {
                        self->closed = true;
                        self->queue.clear();
+                       self->queued_bytes = 0;
                        self->writing = false;
                        return;
                      }
@@ -159,6 +180,8 @@ struct WsSession : std::enable_shared_from_this<WsSession> {
 
   websocket::stream<beast::tcp_stream> ws;
   std::deque<std::shared_ptr<const std::string>> queue;
+  std::size_t queued_bytes = 0;  // of the messages in `queue`
+  std::size_t max_unread_bytes;
   bool writing = false;
   bool closed = false;
   std::uint64_t dropped = 0;
@@ -283,13 +306,25 @@ struct WebServer::Impl {
       co_await http::async_read(stream, buffer, parser, asio::redirect_error(use_awaitable, ec));
       if (ec) co_return;
       http::request<http::string_body> req = parser.release();
+      const std::string_view target(req.target().data(), req.target().size());
+      const std::string_view path = target.substr(0, target.find_first_of("?#"));
       if (websocket::is_upgrade(req)) {
         if (path != "/ws") {
           co_await respond(stream, req, http::status::not_found, "text/plain", "no such socket\n");
           co_return;
         }
+        if (auto refusal = refuse_socket(req, target)) {
+          std::fprintf(stderr, "scaratwin web: refused a WebSocket: %s\n", refusal->c_str());
+          co_await respond(stream, req, http::status::forbidden, "text/plain", *refusal + "\n");
+          co_return;
+        }
         stream.expires_never();
         co_await websocket_session(std::move(stream), std::move(req));
+        co_return;
+      }
+      if (path.rfind("/api/", 0) == 0 && !token_ok(target)) {
+        co_await respond(stream, req, http::status::forbidden, "text/plain",
+                         "this simulator needs its access token: ?token=...\n");
         co_return;
       }
       const bool keep = co_await handle_http(stream, req);
@@ -300,41 +335,6 @@ struct WebServer::Impl {
     }
   }
 
-  asio::awaitable<bool> respond(beast::tcp_stream& stream,
-                                const http::request<http::string_body>& req, http::status status,
-                                std::string_view type, std::string body) {
-    http::response<http::string_body> res{status, req.version()};
-    res.set(http::field::server, "scaratwin-sim");
-    res.set(http::field::content_type, beast::string_view(type.data(), type.size()));
-      const std::string_view target(req.target().data(), req.target().size());
-      const std::string_view path = target.substr(0, target.find_first_of("?#"));
-    res.set(http::field::cache_control, "no-cache");
-    res.set("X-Content-Type-Options", "nosniff");
-    res.keep_alive(req.keep_alive());
-    const bool head = req.method() == http::verb::head;
-    res.body() = std::move(body);
-        if (auto refusal = refuse_socket(req, target)) {
-          std::fprintf(stderr, "scaratwin web: refused a WebSocket: %s\n", refusal->c_str());
-          co_await respond(stream, req, http::status::forbidden, "text/plain", *refusal + "\n");
-          co_return;
-        }
-    res.prepare_payload();
-    if (head) res.body().clear();
-    beast::error_code ec;
-    if (head) {
-      if (path.rfind("/api/", 0) == 0 && !token_ok(target)) {
-        co_await respond(stream, req, http::status::forbidden, "text/plain",
-                         "this simulator needs its access token: ?token=...\n");
-        co_return;
-      }
-      http::response_serializer<http::string_body> sr{res};
-      sr.split(true);
-      co_await http::async_write_header(stream, sr, asio::redirect_error(use_awaitable, ec));
-    } else {
-      co_await http::async_write(stream, res, asio::redirect_error(use_awaitable, ec));
-    }
-    co_return !ec && req.keep_alive();
-  }
   bool token_ok(std::string_view target) const {
     if (options.token.empty()) return true;
     const auto given = query_value(target, "token");
@@ -367,6 +367,29 @@ struct WebServer::Impl {
     return std::nullopt;
   }
 
+  asio::awaitable<bool> respond(beast::tcp_stream& stream,
+                                const http::request<http::string_body>& req, http::status status,
+                                std::string_view type, std::string body) {
+    http::response<http::string_body> res{status, req.version()};
+    res.set(http::field::server, "scaratwin-sim");
+    res.set(http::field::content_type, beast::string_view(type.data(), type.size()));
+    res.set(http::field::cache_control, "no-cache");
+    res.set("X-Content-Type-Options", "nosniff");
+    res.keep_alive(req.keep_alive());
+    const bool head = req.method() == http::verb::head;
+    res.body() = std::move(body);
+    res.prepare_payload();
+    if (head) res.body().clear();
+    beast::error_code ec;
+    if (head) {
+      http::response_serializer<http::string_body> sr{res};
+      sr.split(true);
+      co_await http::async_write_header(stream, sr, asio::redirect_error(use_awaitable, ec));
+    } else {
+      co_await http::async_write(stream, res, asio::redirect_error(use_awaitable, ec));
+    }
+    co_return !ec && req.keep_alive();
+  }
 
   asio::awaitable<bool> handle_http(beast::tcp_stream& stream,
                                     const http::request<http::string_body>& req) {
@@ -408,7 +431,7 @@ struct WebServer::Impl {
 
   asio::awaitable<void> websocket_session(beast::tcp_stream stream,
                                           http::request<http::string_body> req) {
-    auto session = std::make_shared<WsSession>(std::move(stream));
+    auto session = std::make_shared<WsSession>(std::move(stream), options.max_unread_bytes);
     session->ws.set_option(websocket::stream_base::timeout::suggested(beast::role_type::server));
     session->ws.read_message_max(kMaxWsMessageBytes);
     beast::error_code ec;

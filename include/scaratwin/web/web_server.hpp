@@ -35,6 +35,8 @@ struct WebOptions {
   // upgrade whose Origin is not the page's own (scheme://Host) is refused with 403, and so is
   // one naming a Host that is not this machine while no token is set (DNS rebinding).
   std::string token;
+  // Replies (pictures, ...) a browser leaves unread beyond this are not queued: it is cut.
+  std::size_t max_unread_bytes = std::size_t{16} << 20;
 };
 
 // Link figures for the feed; returns an empty status when the simulator has no link data.
