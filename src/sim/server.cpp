@@ -304,8 +304,15 @@ struct SimServer::Impl {
                    peer.c_str(), std::string(first.substr(0, 40)).c_str());
       return {Admission::kRefuse, {}};
     }
+    if (!complete) {
+      // silent for first_line_timeout: it would hold the simulator without saying who it is
+      std::fprintf(stderr,
+                   "scaratwin-sim: closed a connection from %s: no complete line within 10 s\n",
+                   peer.c_str());
+      return {Admission::kRefuse, {}};
+    }
     std::optional<proto::Hello> hello;
-    if (complete) {
+    {
       proto::TcpToSimDecoder d;
       std::string framed(first);
       framed += '\n';

@@ -34,6 +34,20 @@ using Session = detail::StreamSession<tcp::socket>;
 using detail::bad_option;
 using detail::check_link_options;
 
+// The same connection as a socket newly registered with the reactor, for a reader that takes
+// over from another. Asio's epoll reactor tries no read at once after one that drained the
+// socket, and waits for the next edge: an end of stream, or bytes that arrived with the ones
+// the first reader took, would never be seen by the second.
+tcp::socket rewrap(tcp::socket&& s, asio::io_context& io) {
+  boost::system::error_code ec;
+  const tcp::endpoint local = s.local_endpoint(ec);
+  const tcp protocol = ec ? tcp::v4() : local.protocol();
+  const tcp::socket::native_handle_type fd = s.release(ec);
+  tcp::socket fresh(io);
+  if (!ec) fresh.assign(protocol, fd, ec);
+  return fresh;
+}
+
 void tune_socket(tcp::socket& s) {
   boost::system::error_code ignored;
   s.set_option(tcp::no_delay(true), ignored);
@@ -286,7 +300,11 @@ class TcpServerImpl final : public detail::LinkImpl {
           if (n->bytes.find('\n') != std::string::npos || n->bytes.size() > limit) {
             self->decide(n, true);
           } else if (ec) {
-            self->decide(n, false);
+            // ended before its first line: it holds nothing and nothing of it runs
+            n->judged = true;
+            n->timer.cancel();
+            boost::system::error_code ignored;
+            n->socket.close(ignored);
           } else {
             self->read_first_line(n);
           }
@@ -304,7 +322,7 @@ class TcpServerImpl final : public detail::LinkImpl {
     if (d.admission == Admission::kControl && session_) d.admission = Admission::kRefuse;
     switch (d.admission) {
       case Admission::kControl:
-        attach(std::move(n->socket), std::move(n->bytes));
+        attach(rewrap(std::move(n->socket), context()), std::move(n->bytes));
         return;
       case Admission::kObserve:
         observe(n);
@@ -341,8 +359,9 @@ class TcpServerImpl final : public detail::LinkImpl {
       n->socket.close(ignored);
       return;
     }
-    tune_socket(n->socket);
-    auto o = std::make_shared<Observer>(std::move(n->socket), options().splitter);
+    tcp::socket socket = rewrap(std::move(n->socket), context());
+    tune_socket(socket);
+    auto o = std::make_shared<Observer>(std::move(socket), options().splitter);
     observers_.push_back(o);
     serve_observer(o, std::move(n->bytes));
   }

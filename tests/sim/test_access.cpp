@@ -177,6 +177,30 @@ TEST_F(AccessTest, SecondControllerIsRefusedObserverOnlyQueries) {
   EXPECT_EQ(cubes(), 0u);
 }
 
+// A connection that ends before its first line (a hub whose robot link failed before it said
+// hello), or right after it (`printf 'PI,1,\n' | nc`), holds nothing: the next client is
+// admitted. (Found by the Python suite: the session taken over from the admission's reader
+// never saw the end of stream, and every later hub was refused with ER,18,2.)
+TEST_F(AccessTest, ConnectionThatEndsAtOnceHoldsNoSession) {
+  start();
+  for (int i = 0; i < 20; ++i) {
+    {
+      Peer brief(server_->port());
+      if (i % 2 == 1) brief.send("PI,1,\n");
+    }
+    const auto end = std::chrono::steady_clock::now() + 5s;
+    std::string reply;
+    while (std::chrono::steady_clock::now() < end) {
+      Peer next(server_->port());
+      next.send("PI,2,\n");
+      reply = next.lines(1);
+      if (reply == "AK,PI,2,\n") break;
+      std::this_thread::sleep_for(20ms);  // the brief one's end may still be on its way
+    }
+    ASSERT_EQ(reply, "AK,PI,2,\n") << "round " << i;
+  }
+}
+
 // With a token (a simulator listening beyond loopback), every connection must open with a
 // hello that carries it; anything else gets ER,18,1 and is closed before a byte of it runs.
 TEST_F(AccessTest, TokenIsCheckedOnEveryConnection) {

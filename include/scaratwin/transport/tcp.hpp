@@ -54,7 +54,8 @@ struct AdmissionDecision {
   std::string reply;  // kRefuse only
 };
 // Judges a connection on its first line (without '\n'; cut at the line limit, or what came
-// before the connection ended or first_line_timeout passed: then `complete` is false).
+// before first_line_timeout passed: then `complete` is false). A connection that ends before
+// its first line is closed without a judgement.
 // `peer` is "address:port"; `controller` is true while a controlling peer is attached. Runs on
 // the io thread.
 using AdmitFn = std::function<AdmissionDecision(std::string_view first_line, bool complete,
