@@ -3,6 +3,8 @@
 // protocol's virtual link on TCP (default 127.0.0.1:55016).
 #include <csignal>
 #include <cstdio>
+#include <cstdlib>
+#include <random>
 #include <thread>
 
 #include <fmt/format.h>
@@ -39,7 +41,31 @@ struct Args {
   std::string http_bind = "127.0.0.1";
   int http_port = 8080;
   std::string web_root;
+  std::string token;
 };
+
+// 127.0.0.0/8 and ::1: only this machine can connect.
+bool is_loopback(const std::string& address) {
+  return address.rfind("127.", 0) == 0 || address == "::1" || address == "localhost";
+}
+
+// 32 hexadecimal digits (128 bits) from the system's random source.
+std::string generate_token() {
+  std::random_device rd;
+  std::string t;
+  for (int i = 0; i < 4; ++i) t += fmt::format("{:08x}", rd());
+  return t;
+}
+
+bool valid_token(const std::string& t) {
+  if (t.empty() || t.size() > 32) return false;
+  for (char c : t) {
+    const bool ok = (c >= 'a' && c <= 'z') || (c >= 'A' && c <= 'Z') || (c >= '0' && c <= '9') ||
+                    c == '_' || c == '.' || c == '-';
+    if (!ok) return false;
+  }
+  return true;
+}
 
 int fail(const std::string& message, int code = 2) {
   std::fprintf(stderr, "scaratwin-sim: %s\n", message.c_str());
@@ -84,6 +110,10 @@ int main(int argc, char** argv) {
   app.add_option("--http-port", a.http_port, "browser UI port (0: no UI)")->capture_default_str();
   app.add_option("--http-bind", a.http_bind, "address the browser UI listens on")
       ->capture_default_str();
+  app.add_option("--token", a.token,
+                 "access token every connection must present (TCP hello, browser ?token=); "
+                 "default: $SCARATWIN_TOKEN, or one generated and printed when --bind or "
+                 "--http-bind is not a loopback address (docs/security.md)");
   app.add_option(
       "--web-root", a.web_root,
       "folder of the built page (default: the build tree's, or <prefix>/share/scaratwin/web)");
@@ -144,7 +174,24 @@ int main(int argc, char** argv) {
     if (!r) return fail(fmt::format("--spawn '{}': {}", spec, r.error().message));
   }
 
+  // access: loopback needs no token; any other address does (given, or generated here)
+  if (a.token.empty()) {
+    if (const char* env = std::getenv("SCARATWIN_TOKEN"); env != nullptr) a.token = env;
+  }
+  if (!a.token.empty() && !valid_token(a.token)) {
+    return fail("--token / SCARATWIN_TOKEN: expected 1..32 characters of A-Z a-z 0-9 _ . -");
+  }
+  const bool exposed = !is_loopback(a.bind) || (a.http_port != 0 && !is_loopback(a.http_bind));
+  if (exposed && a.token.empty()) {
+    a.token = generate_token();
+    std::printf(
+        "scaratwin-sim: listening beyond this machine: access token %s (give it to the "
+        "hub with --sim-token or SCARATWIN_TOKEN, to the browser as ?token=)\n",
+        a.token.c_str());
+  }
+
   sim::ServerOptions serve;
+  serve.token = a.token;
   serve.bind_address = a.bind;
   serve.port = static_cast<std::uint16_t>(a.port);
   serve.save_images_dir = a.save_images;
@@ -169,6 +216,7 @@ int main(int argc, char** argv) {
   if (a.http_port != 0) {
     web::WebOptions wo_web;
     wo_web.bind_address = a.http_bind;
+    wo_web.token = a.token;
     wo_web.port = static_cast<std::uint16_t>(a.http_port);
     if (!a.web_root.empty()) wo_web.root_dir = a.web_root;
     sim::SimServer* srv = server->get();

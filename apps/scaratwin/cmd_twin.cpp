@@ -7,6 +7,7 @@
 #include <atomic>
 #include <cerrno>
 #include <cstdio>
+#include <cstdlib>
 #include <cstring>
 #include <fstream>
 #include <sstream>
@@ -25,6 +26,7 @@ namespace {
 struct LinkArgs {
   std::string serial;
   std::string sim = "127.0.0.1:55016";
+  std::string sim_token;
   std::string db = "scaratwin-out/twin.db";
   bool no_db = false;
 };
@@ -91,6 +93,9 @@ void add_link_options(CLI::App& cmd, LinkArgs& l) {
                  "serial port of the robot (a board's /dev/ttyACM0, or the pty that "
                  "`scaratwin robot` prints); default: $SCARATWIN_SERIAL");
   cmd.add_option("--sim", l.sim, "simulator address HOST:PORT")->capture_default_str();
+  cmd.add_option("--sim-token", l.sim_token,
+                 "the simulator's access token, when it listens beyond this machine; "
+                 "default: $SCARATWIN_TOKEN");
   cmd.add_option("--db", l.db, "twin database to record into")->capture_default_str();
   cmd.add_flag("--no-db", l.no_db, "record nothing");
 }
@@ -124,6 +129,12 @@ int with_hub(const CommonOptions& common, const LinkArgs& l, const std::string& 
   }
   o.sim_host = l.sim.substr(0, colon);
   o.sim_port = static_cast<std::uint16_t>(port);
+  o.sim_token = l.sim_token;
+  // stop acts on the robot alone, so it may run while another hub controls the simulator
+  if (kind == "stop") o.sim_role = "observe";
+  if (o.sim_token.empty()) {
+    if (const char* env = std::getenv("SCARATWIN_TOKEN"); env != nullptr) o.sim_token = env;
+  }
   std::unique_ptr<TwinDb> db;
   if (!l.no_db) {
     auto d = TwinDb::open(l.db);
@@ -141,7 +152,7 @@ int with_hub(const CommonOptions& common, const LinkArgs& l, const std::string& 
   }
   watcher.attach(hub->get());
   (void)(*hub)->begin_run(kind, label);
-  (*hub)->set_mirror(true);
+  if (o.sim_role != "observe") (*hub)->set_mirror(true);
   Status s = body(**hub);
   (void)(*hub)->end_run(s.ok());
   watcher.detach();

@@ -179,6 +179,8 @@ TwinPtr connect(const py::object& serial, const std::string& sim, const py::obje
   }
   o.sim_host = sim.substr(0, colon);
   o.sim_port = static_cast<std::uint16_t>(port);
+  // a simulator listening beyond this machine asks for its token (docs/security.md)
+  if (const char* env = std::getenv("SCARATWIN_TOKEN")) o.sim_token = env;
   if (!db_path.is_none()) {
     auto d = TwinDb::open(db_path.cast<std::filesystem::path>());
     if (!d) raise(ErrorKind::kDatabase, d.error());

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <cstdio>
 #include <thread>
 
 #include <fmt/format.h>
@@ -27,6 +28,25 @@ namespace {
 constexpr double kDesyncWindowS = 1.5;
 
 constexpr const char* kInterrupted = "interrupted";
+
+// The hub's hello to the simulator: with a token it says it means to control (security.md).
+pr::Hello sim_hello(const HubOptions& o) {
+  const std::string role =
+      !o.sim_role.empty() ? o.sim_role : (o.sim_token.empty() ? "" : "control");
+  return pr::Hello{pr::kProtocolVersion, role, o.sim_token};
+}
+
+// What an ER,18 to the hub's hello means (docs/protocol.md section 6), from the refusal text.
+std::string access_refusal(const std::string& message, const HubOptions& o) {
+  if (message.find("detail 1") != std::string::npos) {
+    return o.sim_token.empty() ? "it needs its access token (--sim-token or SCARATWIN_TOKEN)"
+                               : "wrong access token";
+  }
+  if (message.find("detail 2") != std::string::npos) {
+    return "another client controls it (stop that hub first)";
+  }
+  return message;
+}
 
 }  // namespace
 
@@ -80,6 +100,7 @@ Result<std::unique_ptr<Hub>> Hub::connect(const RobotModel& model, const HubOpti
   t->statements_ =
       std::make_unique<tr::Twin>(t->model_, t->robot_.get(), t->sim_.get(), so_statements);
   Hub* raw = t.get();
+  t->sim_->set_state_handler([raw](tr::LinkState s) { raw->on_sim_link(s); });
   t->robot_->set_unsolicited_handler([raw](pr::SerialFromDevice&& m, const tr::RxPacket& rx) {
     raw->on_robot_packet(std::move(m), rx);
   });
@@ -100,8 +121,14 @@ Result<std::unique_ptr<Hub>> Hub::connect(const RobotModel& model, const HubOpti
                                    o.serial_device, o.hello_timeout_s, r.error().message));
     }
   }
-  auto hi = t->sim_->request(pr::Hello{}, ms(o.hello_timeout_s));
-  if (!hi) return hub_error(fmt::format("simulator hello: {}", hi.error().message));
+  auto hi = t->sim_->request(sim_hello(o), ms(o.hello_timeout_s));
+  if (!hi) {
+    if (hi.error().code == pr::kErrAccess) {
+      return hub_error(fmt::format("simulator at {}:{} refused the hub: {}", o.sim_host, o.sim_port,
+                                   access_refusal(hi.error().message, o)));
+    }
+    return hub_error(fmt::format("simulator hello: {}", hi.error().message));
+  }
   auto sr = t->robot_->request(pr::SetReportRate{o.report_rate_hz}, milliseconds(1000));
   if (!sr) return hub_error(fmt::format("set report rate: {}", sr.error().message));
   return t;
@@ -168,6 +195,47 @@ void Hub::set_mirror(bool on) {
   // mirroring (again): the simulator in mirror mode, and a new stream of frames for it (the
   // reports the hub did not forward meanwhile were not lost, docs/protocol.md section 7)
   if (started) (void)sim_->post(pr::SetMode{pr::SimMode::kMirror});
+}
+
+void Hub::on_sim_link(tr::LinkState state) {
+  const bool up = state == tr::LinkState::kConnected;
+  bool stop_robot = false;
+  bool mirror = false;
+  {
+    std::lock_guard<std::mutex> lock(mu_);
+    if (up == sim_up_) return;
+    sim_up_ = up;
+    mirror = mirror_;
+    if (!up) {
+      ++mirror_counters_.sim_link_losses;
+      if (in_motion_ && motion_abort_.empty()) {
+        motion_abort_ = "the simulator link was lost (the virtual robot no longer follows)";
+        abort_mark_ = event_count_;  // the stop's confirmation (EV 6) comes after this
+        stop_robot = true;
+      }
+      cv_.notify_all();
+    }
+  }
+  if (!up) {
+    // the stop goes out at once from here; the statement waiting for the trajectory wakes,
+    // confirms it and fails saying why
+    if (stop_robot) (void)robot_->send_realtime(pr::Realtime::kStop);
+    std::fprintf(stderr, "scaratwin: the simulator link was lost%s; reconnecting\n",
+                 stop_robot ? " during a move: stopping the robot" : "");
+    record_event("link", stop_robot ? "simulator link lost during a move: robot stopped"
+                                    : "simulator link lost");
+    return;
+  }
+  // back: a new connection, so the hello again (the simulator admits a client on it, with
+  // the token when it asks for one), and the mirror mode for a new stream of frames
+  (void)sim_->post(sim_hello(options_));
+  if (mirror) (void)sim_->post(pr::SetMode{pr::SimMode::kMirror});
+  {
+    std::lock_guard<std::mutex> lock(mu_);
+    sim_grip_closed_ = false;  // a restarted simulator has its gripper open
+  }
+  std::fprintf(stderr, "scaratwin: the simulator link is back\n");
+  record_event("link", "simulator link back");
 }
 
 MirrorCounters Hub::mirror_counters() const {
@@ -267,12 +335,19 @@ void Hub::forward_to_sim(const PhysicalState& ps) {
     std::lock_guard<std::mutex> lock(mu_);
     ++mirror_counters_.frames;
   }
-  (void)sim_->post(
+  const auto not_applied = [this] {
+    std::lock_guard<std::mutex> lock(mu_);
+    ++mirror_counters_.not_applied;
+  };
+  const Status posted = sim_->post(
       jd,
-      [this, rx_us, device_t, q, grip, seq = jd.seq](Result<tr::SimChannel::Reply>&& r) {
-        if (!r) return;
-        const auto* ja = std::get_if<pr::JointApplied>(&r->last());
-        if (ja == nullptr) return;
+      [this, rx_us, device_t, q, grip, seq = jd.seq,
+       not_applied](Result<tr::SimChannel::Reply>&& r) {
+        const auto* ja = r ? std::get_if<pr::JointApplied>(&r->last()) : nullptr;
+        if (ja == nullptr) {
+          not_applied();
+          return;
+        }
         // the apply time is the simulator's steady clock modulo 2^32: unwrap it near rx_us.
         const auto delta =
             static_cast<std::int32_t>(ja->t_apply_us - static_cast<std::uint32_t>(rx_us));
@@ -291,6 +366,7 @@ void Hub::forward_to_sim(const PhysicalState& ps) {
         }
       },
       milliseconds(2000));
+  if (!posted) not_applied();
   // the simulator's gripper follows the robot's gripper servo.
   const double mid = 0.5 * (model_.motors.gripper_open_deg + model_.motors.gripper_closed_deg);
   const bool closed =
@@ -338,7 +414,7 @@ Result<pr::DeviceEvent> Hub::wait_event(std::initializer_list<pr::DeviceEventCod
   std::unique_lock<std::mutex> lock(mu_);
   std::optional<pr::DeviceEvent> found;
   const auto pred = [&] {
-    if (interrupted_) return true;
+    if (motion_aborted()) return true;
     for (const auto& [n, ev] : events_) {
       if (n > after && std::find(codes.begin(), codes.end(), ev.event) != codes.end()) {
         found = ev;
@@ -351,7 +427,7 @@ Result<pr::DeviceEvent> Hub::wait_event(std::initializer_list<pr::DeviceEventCod
     return hub_error(fmt::format("robot: event {} did not come within {:.0f} s",
                                  static_cast<int>(*codes.begin()), timeout_s));
   }
-  if (!found) return hub_error(kInterrupted);
+  if (!found) return hub_error(interrupted_ ? std::string(kInterrupted) : motion_abort_);
   return *found;
 }
 
@@ -512,6 +588,10 @@ Status Hub::stop(double timeout_s) {
   if (Status s = robot_->send_realtime(pr::Realtime::kStop); !s) {
     return hub_error(fmt::format("robot stop: {}", s.error().message));
   }
+  return wait_stopped(mark, timeout_s);
+}
+
+Status Hub::wait_stopped(std::uint64_t mark, double timeout_s) {
   // the confirmation is waited for even when interrupted: interrupt() calls this
   std::unique_lock<std::mutex> lock(mu_);
   const auto stopped = [&] {
@@ -568,10 +648,18 @@ Result<int> Hub::run_trajectory(const JointTrajectory& traj, double timeout_s) {
     mark = event_count_;
     tracker_.emplace(traj, kDesyncWindowS);
     desync_ = DesyncMonitor(options_.desync_threshold_m, options_.desync_persist);
+    in_motion_ = true;
+    motion_abort_.clear();
   }
   const auto clear_tracker = [&] {
     std::lock_guard<std::mutex> lock(mu_);
     tracker_.reset();
+    in_motion_ = false;
+  };
+  // why the trajectory was cut short by the hub itself (the simulator lost), or empty
+  const auto abort_reason = [&] {
+    std::lock_guard<std::mutex> lock(mu_);
+    return motion_abort_;
   };
   // numberTran3: TB, then the points under the device's credit. The robot interpolates
   // between points, so points closer than min_point_dt_s are thinned out (keeping the ends
@@ -593,12 +681,22 @@ Result<int> Hub::run_trajectory(const JointTrajectory& traj, double timeout_s) {
   // trajectory its host gave up on
   const auto give_up = [&](const std::string& what) -> Error {
     clear_tracker();
-    const Status stopped = stop();
+    std::optional<std::uint64_t> sent_at;  // a stop the link watcher already sent
+    {
+      std::lock_guard<std::mutex> lock(mu_);
+      if (!motion_abort_.empty()) sent_at = abort_mark_;
+    }
+    const Status stopped = sent_at ? wait_stopped(*sent_at, 1.0) : stop();
     return hub_error(fmt::format(
         "{}; {}", what, stopped ? std::string("the robot was stopped") : stopped.error().message));
   };
+  if (!sim_link_up()) {
+    clear_tracker();
+    return hub_error("the simulator link is down (reconnecting): nothing moved");
+  }
   auto load = statements_->load_trajectory(sent);
   if (interrupted_) return give_up(kInterrupted);
+  if (const std::string why = abort_reason(); !why.empty()) return give_up(why);
   if (!load) return give_up(fmt::format("robot trajectory load: {}", load.error().message));
   const double wait_s = timeout_s > 0 ? timeout_s : traj.duration_s() + 15.0;
   auto done = wait_event(pr::DeviceEventCode::kTrajectoryDone, wait_s, mark);

@@ -114,9 +114,25 @@ Result<std::string> execute_one(Hub& hub, const Statement& st) {
       const MirrorCounters before = hub.mirror_counters();
       if (Status s = hub.sleep(v[0]); !s) return s.error();
       const MirrorCounters after = hub.mirror_counters();
-      return fmt::format("{} frames mirrored, {} lost, mean latency {:.2f} ms",
-                         after.applied - before.applied, after.lost - before.lost,
-                         after.mean_latency_ms);
+      // lost: the robot's reports that never reached the hub, and the frames the simulator
+      // never applied (its link lost, a refusal); a link that dropped is said, even when it
+      // came back at once
+      const std::uint64_t gaps = after.lost - before.lost;
+      const std::uint64_t unapplied = after.not_applied - before.not_applied;
+      const std::uint64_t drops = after.sim_link_losses - before.sim_link_losses;
+      std::string text = fmt::format("{} frames mirrored, {} lost", after.applied - before.applied,
+                                     gaps + unapplied);
+      if (gaps + unapplied > 0) {
+        text += fmt::format(" ({} robot reports missing, {} frames not applied by the simulator)",
+                            gaps, unapplied);
+      }
+      text += fmt::format(", mean latency {:.2f} ms", after.mean_latency_ms);
+      if (drops > 0) {
+        text += fmt::format("; interrupted: the simulator link was lost {} time{}{}", drops,
+                            drops == 1 ? "" : "s",
+                            hub.sim_connected() ? " and came back" : " and is still down");
+      }
+      return text;
     }
   }
   return Error{93, "unknown statement"};

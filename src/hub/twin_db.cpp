@@ -1,11 +1,14 @@
 #include "scaratwin/hub/twin_db.hpp"
 
 #include <sqlite3.h>
+#include <unistd.h>
 
 #include <algorithm>
 #include <chrono>
 #include <fstream>
+#include <iterator>
 #include <map>
+#include <sstream>
 
 #include <fmt/format.h>
 
@@ -49,10 +52,40 @@ CREATE TABLE IF NOT EXISTS images (
 CREATE TABLE IF NOT EXISTS metrics (
   run INTEGER NOT NULL, name TEXT NOT NULL, value REAL NOT NULL, unit TEXT NOT NULL
 );
+CREATE TABLE IF NOT EXISTS run_owners (
+  run INTEGER PRIMARY KEY, host TEXT NOT NULL, pid INTEGER NOT NULL, started TEXT NOT NULL
+);
 )sql";
+
+// The start time of process `pid` (field 22 of /proc/PID/stat, clock ticks since boot), or ""
+// when there is no such process: with the pid it names one process, even after the pid is
+// reused.
+std::string process_start(long pid) {
+  std::ifstream in(fmt::format("/proc/{}/stat", pid));
+  std::string stat((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  const std::size_t paren = stat.rfind(')');
+  if (paren == std::string::npos) return {};
+  std::istringstream rest(stat.substr(paren + 2));
+  std::string field;
+  for (int i = 3; i <= 22 && rest >> field; ++i) {
+    if (i == 22) return field;
+  }
+  return {};
+}
+
+std::string host_name() {
+  char name[256] = {0};
+  if (::gethostname(name, sizeof name - 1) != 0) return "?";
+  return name;
+}
 
 Error db_error(sqlite3* db, std::string_view what) {
   return Error{kDbError, fmt::format("database: {}: {}", what, sqlite3_errmsg(db))};
+}
+
+Status step_done(sqlite3* db, sqlite3_stmt* s, std::string_view what) {
+  if (sqlite3_step(s) != SQLITE_DONE) return db_error(db, what);
+  return Ok{};
 }
 
 // Prepared statements, cached per SQL text for the lifetime of the connection.
@@ -124,7 +157,36 @@ Result<std::unique_ptr<TwinDb>> TwinDb::open(const std::filesystem::path& path) 
   sqlite3_busy_timeout(db, 2000);
   std::unique_ptr<TwinDb> out(new TwinDb(db, path));
   if (Status s = out->exec(kSchema); !s) return s.error();
+  if (Status s = out->mark_aborted_runs(); !s) return s.error();
   return out;
+}
+
+// A run still 'running' whose recording process on this machine is gone (killed, crashed)
+// becomes 'aborted': what it recorded stays, its status no longer claims it goes on. Runs of
+// live processes, of other machines, and of databases written before run_owners existed are
+// left as they are.
+Status TwinDb::mark_aborted_runs() {
+  auto s = prepare(
+      "SELECT r.id, o.pid, o.started FROM runs r JOIN run_owners o ON o.run = r.id "
+      "WHERE r.status = 'running' AND o.host = ?");
+  if (!s) return s.error();
+  const std::string host = host_name();
+  bind_text(*s, 1, host);
+  std::vector<int64_t> dead;
+  int rc;
+  while ((rc = sqlite3_step(*s)) == SQLITE_ROW) {
+    const long pid = static_cast<long>(sqlite3_column_int64(*s, 1));
+    const auto* started = reinterpret_cast<const char*>(sqlite3_column_text(*s, 2));
+    if (process_start(pid) != (started ? started : "")) dead.push_back(sqlite3_column_int64(*s, 0));
+  }
+  if (rc != SQLITE_DONE) return db_error(db_, "find unfinished runs");
+  for (int64_t run : dead) {
+    auto u = prepare("UPDATE runs SET status = 'aborted' WHERE id = ? AND status = 'running'");
+    if (!u) return u.error();
+    sqlite3_bind_int64(*u, 1, run);
+    if (Status st = step_done(db_, *u, "mark an aborted run"); !st) return st;
+  }
+  return Ok{};
 }
 
 Status TwinDb::exec(const char* sql) {
@@ -171,15 +233,6 @@ Status TwinDb::flush() {
   return exec("COMMIT");
 }
 
-namespace {
-
-Status step_done(sqlite3* db, sqlite3_stmt* s, std::string_view what) {
-  if (sqlite3_step(s) != SQLITE_DONE) return db_error(db, what);
-  return Ok{};
-}
-
-}  // namespace
-
 Result<int64_t> TwinDb::begin_run(std::string_view kind, std::string_view label, int64_t parent,
                                   int64_t ref) {
   if (Status f = flush(); !f) return f.error();
@@ -192,7 +245,17 @@ Result<int64_t> TwinDb::begin_run(std::string_view kind, std::string_view label,
   bind_text(*s, 4, label);
   sqlite3_bind_double(*s, 5, unix_now_s());
   if (Status st = step_done(db_, *s, "begin run"); !st) return st.error();
-  return static_cast<int64_t>(sqlite3_last_insert_rowid(db_));
+  const auto run = static_cast<int64_t>(sqlite3_last_insert_rowid(db_));
+  // who records it: a later open marks it aborted if this process dies before end_run()
+  auto o =
+      prepare("INSERT OR REPLACE INTO run_owners (run, host, pid, started) VALUES (?, ?, ?, ?)");
+  if (!o) return o.error();
+  sqlite3_bind_int64(*o, 1, run);
+  bind_text(*o, 2, host_name());
+  sqlite3_bind_int64(*o, 3, static_cast<int64_t>(::getpid()));
+  bind_text(*o, 4, process_start(static_cast<long>(::getpid())));
+  if (Status st = step_done(db_, *o, "begin run"); !st) return st.error();
+  return run;
 }
 
 Status TwinDb::end_run(int64_t run, std::string_view status, double duration_s) {

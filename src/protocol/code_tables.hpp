@@ -36,7 +36,7 @@ const CodeSpec kSerialDeviceToHostCodes[] = {
 };
 
 const CodeSpec kTcpHubToSimCodes[] = {
-    make_code('H', 'I', 1, "i"),       // proto_version
+    make_code('H', 'I', 1, "itt"),     // proto_version [role] [token]
     make_code('P', 'I', 0, "i"),       // [token]
     make_code('J', 'D', 6, "iudddd"),  // seq t_us d1_mm q2_deg q3_deg q4_deg
     make_code('T', 'J', 6, "iudddd"),  // seq t_us d1_mm q2_deg q3_deg q4_deg

@@ -128,7 +128,7 @@ Decoded<SerialToDevice> to_message(const Packet& p, SerialToDevice*) {
   std::optional<DecodeError> error;
   switch (p.code) {
     case code_id('H', 'I'):
-      return make<M>(Hello{p.i32(0)});
+      return make<M>(Hello{p.i32(0), {}, {}});
     case code_id('P', 'I'):
       return make<M>(Ping{optional_field(p, 0)});
     case code_id('S', 'R'):
@@ -209,8 +209,17 @@ Decoded<TcpToSim> to_message(const Packet& p, TcpToSim*) {
   using M = TcpToSim;
   std::optional<DecodeError> error;
   switch (p.code) {
-    case code_id('H', 'I'):
-      return make<M>(Hello{p.i32(0)});
+    case code_id('H', 'I'): {
+      Hello hello{p.i32(0), {}, {}};
+      if (p.field_count > 1) {
+        if (!p.text_equals(1, "control") && !p.text_equals(1, "observe")) {
+          return bad_value(p, 1, "control or observe");
+        }
+        hello.role = field_text(p, 1);
+      }
+      if (p.field_count > 2) hello.token = field_text(p, 2);
+      return make<M>(std::move(hello));
+    }
     case code_id('P', 'I'):
       return make<M>(Ping{optional_field(p, 0)});
     case code_id('J', 'D'):

@@ -95,6 +95,8 @@ class Writer {
 void put(Writer& w, const Hello& m) {
   w.begin('H', 'I');
   w.i32(m.version);
+  if (!m.role.empty() || !m.token.empty()) w.text(m.role.empty() ? "control" : m.role, "role");
+  if (!m.token.empty()) w.text(m.token, "token");
 }
 void put(Writer& w, const PeerHello& m) {
   w.begin('H', 'I');

@@ -4,8 +4,11 @@
 #include "scaratwin/sim/server.hpp"
 
 #include <cmath>
+#include <cstdio>
 #include <filesystem>
 #include <mutex>
+#include <optional>
+#include <string_view>
 
 #include <fmt/format.h>
 
@@ -21,6 +24,10 @@ namespace core = scaratwin::protocol::core;
 
 constexpr const char* kDeviceName = "scaratwin-sim";
 constexpr const char* kSoftwareVersion = "0.1.0";
+// ER,18 details (docs/protocol.md section 6)
+constexpr std::int32_t kAccessToken = 1;     // token missing or wrong
+constexpr std::int32_t kAccessInUse = 2;     // another client controls the simulator
+constexpr std::int32_t kAccessObserver = 3;  // an observer may only query
 
 std::uint32_t wrap_us(double seconds) {
   return static_cast<std::uint32_t>(static_cast<std::uint64_t>(std::llround(seconds * 1e6)));
@@ -247,6 +254,104 @@ struct SimServer::Impl {
     put(out, proto::Ack{"SP", std::nullopt});
   }
 
+  // The observer's side: queries only, each line answered (docs/security.md).
+  std::string handle_observer(const transport::Frame& frame) {
+    std::string out;
+    if (frame.kind == transport::FrameKind::kOverlong) {
+      error(out, core::kErrLineTooLong, 512);
+      return out;
+    }
+    if (frame.kind != transport::FrameKind::kLine) {
+      error(out, core::kErrAccess, kAccessObserver);
+      return out;
+    }
+    std::lock_guard lock(handle_mutex);
+    proto::TcpToSimDecoder d;
+    std::string framed = frame.line;
+    framed += '\n';
+    d.feed(framed, [&](proto::Decoded<proto::TcpToSim>&& m) {
+      if (auto* e = std::get_if<proto::DecodeError>(&m)) {
+        error(out, e->code, e->detail);
+        return;
+      }
+      const auto& msg = std::get<proto::TcpToSim>(m);
+      if (const auto* hi = std::get_if<proto::Hello>(&msg)) {
+        if (hi->version != core::kProtocolVersion) {
+          error(out, core::kErrVersion, core::kProtocolVersion);
+        } else {
+          put(out, proto::PeerHello{core::kProtocolVersion, kDeviceName, kSoftwareVersion});
+        }
+      } else if (std::holds_alternative<proto::Ping>(msg) ||
+                 std::holds_alternative<proto::QueryState>(msg) ||
+                 std::holds_alternative<proto::QueryObjects>(msg)) {
+        std::visit([&](const auto& q) { on(out, q); }, msg);
+      } else {
+        error(out, core::kErrAccess, kAccessObserver);
+      }
+    });
+    if (out.empty()) error(out, core::kErrBadCharacter, 0);
+    return out;
+  }
+
+  // Judges a new connection on its first line (transport::AdmitFn).
+  transport::AdmissionDecision admit(std::string_view first, bool complete, const std::string& peer,
+                                     bool controller) {
+    using transport::Admission;
+    if (looks_like_http(first)) {
+      std::fprintf(stderr,
+                   "scaratwin-sim: closed a connection from %s: it sent an HTTP request "
+                   "(\"%.40s\"), not the simulator protocol; nothing of it was run\n",
+                   peer.c_str(), std::string(first.substr(0, 40)).c_str());
+      return {Admission::kRefuse, {}};
+    }
+    if (!complete) {
+      // silent for first_line_timeout: it would hold the simulator without saying who it is
+      std::fprintf(stderr,
+                   "scaratwin-sim: closed a connection from %s: no complete line within 10 s\n",
+                   peer.c_str());
+      return {Admission::kRefuse, {}};
+    }
+    std::optional<proto::Hello> hello;
+    {
+      proto::TcpToSimDecoder d;
+      std::string framed(first);
+      framed += '\n';
+      d.feed(framed, [&](proto::Decoded<proto::TcpToSim>&& m) {
+        if (auto* msg = std::get_if<proto::TcpToSim>(&m)) {
+          if (auto* hi = std::get_if<proto::Hello>(msg)) hello = *hi;
+        }
+      });
+    }
+    auto refuse = [&](int detail, const char* why) {
+      std::fprintf(stderr, "scaratwin-sim: refused a connection from %s: %s\n", peer.c_str(), why);
+      std::string reply;
+      error(reply, core::kErrAccess, detail);
+      return transport::AdmissionDecision{Admission::kRefuse, std::move(reply)};
+    };
+    if (!options.token.empty() && (!hello || hello->token != options.token)) {
+      return refuse(kAccessToken,
+                    hello && !hello->token.empty()
+                        ? "wrong token"
+                        : "no token (this simulator needs HI,1,control,<token>, first)");
+    }
+    if (hello && hello->role == "observe") return {Admission::kObserve, {}};
+    if (controller) {
+      return refuse(kAccessInUse,
+                    "another client controls the simulator (an observer says HI,1,observe,)");
+    }
+    return {Admission::kControl, {}};
+  }
+
+  static bool looks_like_http(std::string_view first) {
+    static constexpr std::string_view kMethods[] = {"GET ",    "POST ",    "PUT ",     "HEAD ",
+                                                    "DELETE ", "OPTIONS ", "CONNECT ", "PATCH ",
+                                                    "TRACE ",  "PRI "};
+    for (std::string_view m : kMethods) {
+      if (first.substr(0, m.size()) == m) return true;
+    }
+    return false;
+  }
+
   std::string handle(const std::string& line) {
     std::lock_guard lock(handle_mutex);
     ++packets;
@@ -279,6 +384,14 @@ SimServer::~SimServer() {
 }
 
 Result<std::unique_ptr<SimServer>> SimServer::create(World& world, const ServerOptions& options) {
+  for (char c : options.token) {
+    const bool ok = (c >= 'a' && c <= 'z') || (c >= 'A' && c <= 'Z') || (c >= '0' && c <= '9') ||
+                    c == '_' || c == '.' || c == '-';
+    if (!ok || options.token.size() > 32) {
+      return Error{static_cast<int>(SimError::kBadArgument),
+                   "access token: expected 1..32 characters of A-Z a-z 0-9 _ . -"};
+    }
+  }
   std::unique_ptr<SimServer> s(new SimServer(world, options));
   Impl& impl = *s->impl_;
   if (!options.save_images_dir.empty()) {
@@ -293,6 +406,9 @@ Result<std::unique_ptr<SimServer>> SimServer::create(World& world, const ServerO
   transport::TcpServerOptions o;
   o.bind_address = options.bind_address;
   o.port = options.port;
+  o.admit = [&impl](std::string_view first, bool complete, const std::string& peer,
+                    bool controller) { return impl.admit(first, complete, peer, controller); };
+  o.observe = [&impl](const transport::Frame& f) { return impl.handle_observer(f); };
   auto link = transport::TcpServer::create(o, impl.io);
   if (!link) return link.error();
   impl.link = std::move(*link);

@@ -2,10 +2,15 @@
 
 #include "scaratwin/transport/tcp.hpp"
 
+#include <algorithm>
+#include <array>
+#include <vector>
+
 #include <boost/asio/connect.hpp>
 #include <boost/asio/ip/tcp.hpp>
 #include <boost/asio/post.hpp>
 #include <boost/asio/steady_timer.hpp>
+#include <boost/asio/write.hpp>
 
 #include "link_impl.hpp"
 #include "stream_session.hpp"
@@ -28,6 +33,20 @@ namespace {
 using Session = detail::StreamSession<tcp::socket>;
 using detail::bad_option;
 using detail::check_link_options;
+
+// The same connection as a socket newly registered with the reactor, for a reader that takes
+// over from another. Asio's epoll reactor tries no read at once after one that drained the
+// socket, and waits for the next edge: an end of stream, or bytes that arrived with the ones
+// the first reader took, would never be seen by the second.
+tcp::socket rewrap(tcp::socket&& s, asio::io_context& io) {
+  boost::system::error_code ec;
+  const tcp::endpoint local = s.local_endpoint(ec);
+  const tcp protocol = ec ? tcp::v4() : local.protocol();
+  const tcp::socket::native_handle_type fd = s.release(ec);
+  tcp::socket fresh(io);
+  if (!ec) fresh.assign(protocol, fd, ec);
+  return fresh;
+}
 
 void tune_socket(tcp::socket& s) {
   boost::system::error_code ignored;
@@ -167,7 +186,12 @@ class TcpClientImpl final : public detail::LinkImpl {
 class TcpServerImpl final : public detail::LinkImpl {
  public:
   TcpServerImpl(std::shared_ptr<IoThread> io, const TcpServerOptions& options, std::string name)
-      : LinkImpl(std::move(io), options.link, std::move(name)), acceptor_(context()) {}
+      : LinkImpl(std::move(io), options.link, std::move(name)),
+        acceptor_(context()),
+        admit_(options.admit),
+        observe_(options.observe),
+        first_line_timeout_(options.first_line_timeout),
+        max_observers_(options.max_observers) {}
 
   Status listen(const TcpServerOptions& options) {
     boost::system::error_code ec;
@@ -208,6 +232,10 @@ class TcpServerImpl final : public detail::LinkImpl {
     acceptor_.close(ignored);
     if (session_) session_->stop();
     session_.reset();
+    for (auto& w : observers_) {
+      if (auto o = w.lock()) o->socket.close(ignored);
+    }
+    observers_.clear();
   }
 
  private:
@@ -228,12 +256,144 @@ class TcpServerImpl final : public detail::LinkImpl {
         });
         return;
       }
-      self->attach(std::move(s));
+      if (self->admit_) {
+        self->judge(std::move(s));
+      } else {
+        self->attach(std::move(s), {});
+      }
       self->accept();
     });
   }
 
-  void attach(tcp::socket socket) {
+  // A connection waiting for its first line, then judged by admit_.
+  struct Newcomer {
+    Newcomer(tcp::socket s, asio::io_context& io) : socket(std::move(s)), timer(io) {}
+    tcp::socket socket;
+    asio::steady_timer timer;
+    std::string bytes;  // everything received so far
+    std::string peer;
+    std::array<char, 4096> buffer{};
+    bool judged = false;
+  };
+
+  void judge(tcp::socket socket) {
+    auto n = std::make_shared<Newcomer>(std::move(socket), context());
+    boost::system::error_code ec;
+    const auto remote = n->socket.remote_endpoint(ec);
+    n->peer =
+        ec ? std::string("?") : remote.address().to_string() + ":" + std::to_string(remote.port());
+    n->timer.expires_after(first_line_timeout_);
+    n->timer.async_wait([self = self(), n](const boost::system::error_code& tec) {
+      if (tec || self->closed() || n->judged) return;
+      self->decide(n, false);
+    });
+    read_first_line(n);
+  }
+
+  void read_first_line(const std::shared_ptr<Newcomer>& n) {
+    n->socket.async_read_some(
+        asio::buffer(n->buffer),
+        [self = self(), n](const boost::system::error_code& ec, std::size_t got) {
+          if (self->closed() || n->judged) return;
+          n->bytes.append(n->buffer.data(), got);
+          const std::size_t limit = self->options().splitter.max_line_bytes;
+          if (n->bytes.find('\n') != std::string::npos || n->bytes.size() > limit) {
+            self->decide(n, true);
+          } else if (ec) {
+            // ended before its first line: it holds nothing and nothing of it runs
+            n->judged = true;
+            n->timer.cancel();
+            boost::system::error_code ignored;
+            n->socket.close(ignored);
+          } else {
+            self->read_first_line(n);
+          }
+        });
+  }
+
+  void decide(const std::shared_ptr<Newcomer>& n, bool complete) {
+    n->judged = true;
+    n->timer.cancel();
+    std::string_view first(n->bytes);
+    const std::size_t limit = options().splitter.max_line_bytes;
+    first = first.substr(0, std::min(first.find('\n'), limit));
+    if (!first.empty() && first.back() == '\r') first.remove_suffix(1);
+    AdmissionDecision d = admit_(first, complete, n->peer, session_ != nullptr);
+    if (d.admission == Admission::kControl && session_) d.admission = Admission::kRefuse;
+    switch (d.admission) {
+      case Admission::kControl:
+        attach(rewrap(std::move(n->socket), context()), std::move(n->bytes));
+        return;
+      case Admission::kObserve:
+        observe(n);
+        return;
+      case Admission::kRefuse:
+        refuse(std::move(n->socket), std::move(d.reply));
+        return;
+    }
+  }
+
+  void refuse(tcp::socket socket, std::string reply) {
+    auto s = std::make_shared<tcp::socket>(std::move(socket));
+    auto bytes = std::make_shared<std::string>(std::move(reply));
+    asio::async_write(*s, asio::buffer(*bytes),
+                      [s, bytes](const boost::system::error_code&, std::size_t) {
+                        boost::system::error_code ignored;
+                        s->shutdown(tcp::socket::shutdown_both, ignored);
+                        s->close(ignored);
+                      });
+  }
+
+  // An observer: its own splitter, its frames answered by observe_ in order, one at a time.
+  struct Observer {
+    Observer(tcp::socket s, const SplitterOptions& o) : socket(std::move(s)), splitter(o) {}
+    tcp::socket socket;
+    LineSplitter splitter;
+    std::array<char, 4096> buffer{};
+  };
+
+  void observe(const std::shared_ptr<Newcomer>& n) {
+    std::erase_if(observers_, [](const std::weak_ptr<Observer>& w) { return w.expired(); });
+    if (!observe_ || observers_.size() >= max_observers_) {
+      boost::system::error_code ignored;
+      n->socket.close(ignored);
+      return;
+    }
+    tcp::socket socket = rewrap(std::move(n->socket), context());
+    tune_socket(socket);
+    auto o = std::make_shared<Observer>(std::move(socket), options().splitter);
+    observers_.push_back(o);
+    serve_observer(o, std::move(n->bytes));
+  }
+
+  void serve_observer(const std::shared_ptr<Observer>& o, std::string_view bytes) {
+    auto reply = std::make_shared<std::string>();
+    o->splitter.feed(bytes, [&](Frame&& f) { reply->append(observe_(f)); });
+    auto next = [self = self(), o](const boost::system::error_code& ec, std::size_t) {
+      if (self->closed() || ec) return;
+      o->socket.async_read_some(asio::buffer(o->buffer),
+                                [self, o](const boost::system::error_code& rec, std::size_t got) {
+                                  if (self->closed()) return;
+                                  if (got > 0)
+                                    self->serve_observer(o,
+                                                         std::string_view(o->buffer.data(), got));
+                                  if (rec) {
+                                    boost::system::error_code ignored;
+                                    o->socket.close(ignored);
+                                  }
+                                });
+    };
+    if (reply->empty()) {
+      next({}, 0);
+    } else {
+      asio::async_write(
+          o->socket, asio::buffer(*reply),
+          [reply, next](const boost::system::error_code& ec, std::size_t n) { next(ec, n); });
+    }
+  }
+
+  // `first_bytes`: what the admission read of the connection, delivered before the rest.
+  void attach(tcp::socket socket, std::string first_bytes) {
     if (session_) {  // a new peer replaces the current one
       session_->stop();
       session_.reset();
@@ -241,17 +401,27 @@ class TcpServerImpl final : public detail::LinkImpl {
     }
     tune_socket(socket);
     const std::uint32_t connection = on_connected();
-    session_ = std::make_shared<Session>(shared_from_this(), std::move(socket), connection,
-                                         [self = self()](bool error) {
-                                           self->session_.reset();
-                                           self->on_disconnected(error);
-                                         });
-    session_->start();
+    auto session = std::make_shared<Session>(shared_from_this(), std::move(socket), connection,
+                                             [self = self()](bool error) {
+                                               self->session_.reset();
+                                               self->on_disconnected(error);
+                                             });
+    session_ = session;
+    if (!first_bytes.empty()) {
+      on_bytes(first_bytes, connection);
+      if (closed() || session_ != session) return;  // a handler closed the link
+    }
+    session->start();
   }
 
   tcp::acceptor acceptor_;
   std::shared_ptr<Session> session_;
   std::uint16_t port_ = 0;
+  AdmitFn admit_;
+  ObserveFn observe_;
+  Duration first_line_timeout_{10000};
+  std::size_t max_observers_ = 8;
+  std::vector<std::weak_ptr<Observer>> observers_;
 };
 
 }  // namespace

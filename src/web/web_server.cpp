@@ -2,10 +2,17 @@
 // includes Beast: it takes long to compile).
 #include <utility>  // before Boost headers (Boost 1.74 with g++ 12)
 
+// g++ 12 warns that the coroutine frames of serve() are freed by a mismatched operator
+// delete: both are asio's awaitable_frame_base pair (its recycling allocator), which the
+// warning does not follow through the frame once serve() has this many suspension points.
+#pragma GCC diagnostic ignored "-Wmismatched-new-delete"
+
 #include "scaratwin/web/web_server.hpp"
 
 #include <atomic>
+#include <cctype>
 #include <chrono>
+#include <cstdio>
 #include <cstring>
 #include <deque>
 #include <filesystem>
@@ -67,6 +74,49 @@ std::optional<std::filesystem::path> resolve(const std::filesystem::path& root,
   return root / rel;
 }
 
+// The value of `key` in the query of a request target ("/ws?token=abc" -> "abc").
+std::optional<std::string_view> query_value(std::string_view target, std::string_view key) {
+  const std::size_t q = target.find('?');
+  if (q == std::string_view::npos) return std::nullopt;
+  std::string_view query = target.substr(q + 1);
+  query = query.substr(0, query.find('#'));
+  while (!query.empty()) {
+    const std::size_t amp = query.find('&');
+    const std::string_view pair = query.substr(0, amp);
+    const std::size_t eq = pair.find('=');
+    if (pair.substr(0, eq) == key) {
+      return eq == std::string_view::npos ? std::string_view() : pair.substr(eq + 1);
+    }
+    if (amp == std::string_view::npos) break;
+    query.remove_prefix(amp + 1);
+  }
+  return std::nullopt;
+}
+
+// True when a Host header names this machine (localhost, 127.x.y.z, [::1]), with any port.
+bool local_host(std::string_view host) {
+  std::string_view name = host;
+  if (!name.empty() && name.front() == '[') {
+    name = name.substr(0, name.find(']') + 1);
+  } else {
+    name = name.substr(0, name.find(':'));
+  }
+  std::string lower(name);
+  for (char& c : lower) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+  return lower == "localhost" || lower.rfind("127.", 0) == 0 || lower == "[::1]";
+}
+
+bool iequals(std::string_view a, std::string_view b) {
+  if (a.size() != b.size()) return false;
+  for (std::size_t i = 0; i < a.size(); ++i) {
+    if (std::tolower(static_cast<unsigned char>(a[i])) !=
+        std::tolower(static_cast<unsigned char>(b[i]))) {
+      return false;
+    }
+  }
+  return true;
+}
+
 std::optional<std::string> read_file(const std::filesystem::path& path) {
   std::error_code ec;
   if (!std::filesystem::is_regular_file(path, ec)) return std::nullopt;
@@ -79,7 +129,8 @@ std::optional<std::string> read_file(const std::filesystem::path& path) {
 
 // A WebSocket connection: an ordered queue of outgoing messages written one at a time.
 struct WsSession : std::enable_shared_from_this<WsSession> {
-  explicit WsSession(beast::tcp_stream&& stream) : ws(std::move(stream)) {}
+  WsSession(beast::tcp_stream&& stream, std::size_t max_unread)
+      : ws(std::move(stream)), max_unread_bytes(max_unread) {}
 
   // state frames are droppable: a browser that is behind skips them instead of lagging
   void send(std::shared_ptr<const std::string> message, bool droppable) {
@@ -88,6 +139,20 @@ struct WsSession : std::enable_shared_from_this<WsSession> {
       ++dropped;
       return;
     }
+    if (queued_bytes + message->size() > max_unread_bytes) {
+      // a browser that asks and never reads (issue 17: 300 unread pictures, +60 MB) is cut
+      std::fprintf(stderr,
+                   "scaratwin web: a browser left %zu bytes of replies unread (limit %zu): "
+                   "connection closed\n",
+                   queued_bytes + message->size(), max_unread_bytes);
+      closed = true;
+      queue.clear();
+      queued_bytes = 0;
+      beast::error_code ignored;
+      beast::get_lowest_layer(ws).socket().close(ignored);
+      return;
+    }
+    queued_bytes += message->size();
     queue.push_back(std::move(message));
     if (!writing) write_next();
   }
@@ -97,10 +162,16 @@ struct WsSession : std::enable_shared_from_this<WsSession> {
     ws.text(true);
     ws.async_write(asio::buffer(*queue.front()),
                    [self = shared_from_this()](beast::error_code ec, std::size_t) {
+                     if (self->queue.empty()) {  // cut meanwhile
+                       self->writing = false;
+                       return;
+                     }
+                     self->queued_bytes -= self->queue.front()->size();
                      self->queue.pop_front();
                      if (ec) {
                        self->closed = true;
                        self->queue.clear();
+                       self->queued_bytes = 0;
                        self->writing = false;
                        return;
                      }
@@ -114,6 +185,8 @@ struct WsSession : std::enable_shared_from_this<WsSession> {
 
   websocket::stream<beast::tcp_stream> ws;
   std::deque<std::shared_ptr<const std::string>> queue;
+  std::size_t queued_bytes = 0;  // of the messages in `queue`
+  std::size_t max_unread_bytes;
   bool writing = false;
   bool closed = false;
   std::uint64_t dropped = 0;
@@ -238,13 +311,25 @@ struct WebServer::Impl {
       co_await http::async_read(stream, buffer, parser, asio::redirect_error(use_awaitable, ec));
       if (ec) co_return;
       http::request<http::string_body> req = parser.release();
+      const std::string_view target(req.target().data(), req.target().size());
+      const std::string_view path = target.substr(0, target.find_first_of("?#"));
       if (websocket::is_upgrade(req)) {
-        if (req.target() != "/ws") {
+        if (path != "/ws") {
           co_await respond(stream, req, http::status::not_found, "text/plain", "no such socket\n");
+          co_return;
+        }
+        if (auto refusal = refuse_socket(req, target)) {
+          std::fprintf(stderr, "scaratwin web: refused a WebSocket: %s\n", refusal->c_str());
+          co_await respond(stream, req, http::status::forbidden, "text/plain", *refusal + "\n");
           co_return;
         }
         stream.expires_never();
         co_await websocket_session(std::move(stream), std::move(req));
+        co_return;
+      }
+      if (path.rfind("/api/", 0) == 0 && !token_ok(target)) {
+        co_await respond(stream, req, http::status::forbidden, "text/plain",
+                         "this simulator needs its access token: ?token=...\n");
         co_return;
       }
       const bool keep = co_await handle_http(stream, req);
@@ -253,6 +338,38 @@ struct WebServer::Impl {
         co_return;
       }
     }
+  }
+
+  bool token_ok(std::string_view target) const {
+    if (options.token.empty()) return true;
+    const auto given = query_value(target, "token");
+    return given && *given == options.token;
+  }
+
+  // Why a WebSocket upgrade is refused, or nothing. Browsers always send Origin on a
+  // WebSocket: a page of another site (Origin not this page's scheme://Host) may not drive
+  // the simulator; without a token the Host must be this machine, so a hostile name that
+  // resolves to 127.0.0.1 (DNS rebinding) is refused too. Clients that are not browsers send
+  // no Origin.
+  std::optional<std::string> refuse_socket(const http::request<http::string_body>& req,
+                                           std::string_view target) const {
+    const auto host_it = req.find(http::field::host);
+    const std::string_view host =
+        host_it == req.end() ? std::string_view()
+                             : std::string_view(host_it->value().data(), host_it->value().size());
+    if (!token_ok(target)) return "missing or wrong access token (?token=...)";
+    if (options.token.empty() && !local_host(host)) {
+      return fmt::format("Host '{}' is not this machine", host);
+    }
+    const auto origin_it = req.find(http::field::origin);
+    if (origin_it != req.end()) {
+      const std::string_view origin(origin_it->value().data(), origin_it->value().size());
+      if (!iequals(origin, fmt::format("http://{}", host)) &&
+          !iequals(origin, fmt::format("https://{}", host))) {
+        return fmt::format("Origin '{}' is not this page's (http://{})", origin, host);
+      }
+    }
+    return std::nullopt;
   }
 
   asio::awaitable<bool> respond(beast::tcp_stream& stream,
@@ -285,7 +402,8 @@ struct WebServer::Impl {
       co_return co_await respond(stream, req, http::status::method_not_allowed, "text/plain",
                                  "only GET and HEAD\n");
     }
-    const std::string_view target(req.target().data(), req.target().size());
+    const std::string_view full(req.target().data(), req.target().size());
+    const std::string_view target = full.substr(0, full.find_first_of("?#"));
     if (target == "/api/scene") {
       co_return co_await respond(stream, req, http::status::ok, "application/json", scene);
     }
@@ -318,7 +436,7 @@ struct WebServer::Impl {
 
   asio::awaitable<void> websocket_session(beast::tcp_stream stream,
                                           http::request<http::string_body> req) {
-    auto session = std::make_shared<WsSession>(std::move(stream));
+    auto session = std::make_shared<WsSession>(std::move(stream), options.max_unread_bytes);
     session->ws.set_option(websocket::stream_base::timeout::suggested(beast::role_type::server));
     session->ws.read_message_max(kMaxWsMessageBytes);
     beast::error_code ec;

@@ -1,4 +1,6 @@
 // Twin database, figures, reports and the statement language.
+#include <signal.h>
+#include <sys/wait.h>
 #include <unistd.h>
 
 #include <cmath>
@@ -77,6 +79,56 @@ TEST(TwinDb, KeepsEverythingAcrossReopen) {
   EXPECT_EQ(std::count(csv.begin(), csv.end(), '\n'), 5001);
   EXPECT_NE(read_file(dir / "csv" / "events.csv").find("\"desync, 3 mm\""), std::string::npos);
   fs::remove_all(dir);
+}
+
+// issue 17: `kill -9` of a recording hub left its run 'running' forever. The next open marks
+// it 'aborted' (what it recorded stays); a run whose process lives stays 'running'.
+TEST(TwinDb, RunOfAKilledProcessIsMarkedAbortedOnTheNextOpen) {
+  const fs::path dir = temp_dir("aborted");
+  const fs::path path = dir / "twin.db";
+  int ready[2];
+  ASSERT_EQ(::pipe(ready), 0);
+  const pid_t child = ::fork();
+  ASSERT_GE(child, 0);
+  if (child == 0) {
+    // the recording process: a run begun, a sample committed, then killed mid-run
+    auto db = TwinDb::open(path);
+    if (!db) ::_exit(3);
+    auto run = (*db)->begin_run("mirror", "killed");
+    if (!run) ::_exit(4);
+    (void)(*db)->add_sample(*run, SampleSource::kPhysical, {0.5, 7, {0.1, 0.2, 0.3, 0.4}, 0.0});
+    (void)(*db)->flush();
+    const char ok = 'k';
+    (void)!::write(ready[1], &ok, 1);
+    for (;;) ::pause();
+  }
+  ::close(ready[1]);
+  char got = 0;
+  ASSERT_EQ(::read(ready[0], &got, 1), 1);
+  ::close(ready[0]);
+  // a live run of this process, in the same file
+  auto live = TwinDb::open(path);
+  ASSERT_TRUE(live) << live.error().message;
+  auto mine = (*live)->begin_run("script", "alive");
+  ASSERT_TRUE(mine);
+  ASSERT_TRUE((*live)->flush());
+  ASSERT_EQ(::kill(child, SIGKILL), 0);
+  int status = 0;
+  ASSERT_EQ(::waitpid(child, &status, 0), child);
+  auto db = TwinDb::open(path);
+  ASSERT_TRUE(db) << db.error().message;
+  auto runs = (*db)->runs();
+  ASSERT_TRUE(runs);
+  ASSERT_EQ(runs->size(), 2u);
+  EXPECT_EQ((*runs)[0].label, "killed");
+  EXPECT_EQ((*runs)[0].status, "aborted");
+  EXPECT_EQ((*runs)[1].label, "alive");
+  EXPECT_EQ((*runs)[1].status, "running");
+  auto kept = (*db)->samples((*runs)[0].id, SampleSource::kPhysical);
+  ASSERT_TRUE(kept);
+  ASSERT_EQ(kept->size(), 1u);
+  EXPECT_EQ((*kept)[0].seq, 7);
+  ASSERT_TRUE((*live)->end_run(*mine, "ok", 1.0));
 }
 
 TEST(TwinDb, RefusesAnUnwritablePath) {

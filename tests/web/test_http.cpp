@@ -7,10 +7,12 @@
 
 #include <gtest/gtest.h>
 
+#include <chrono>
 #include <filesystem>
 #include <fstream>
 #include <nlohmann/json.hpp>
 #include <string>
+#include <thread>
 
 #include "scaratwin/config/robot_config.hpp"
 #include "scaratwin/web/feed.hpp"
@@ -129,6 +131,148 @@ TEST_F(HttpTest, JsonEndpointsCarryTheSceneAndTheState) {
   EXPECT_EQ(state["type"], "state");
   ASSERT_EQ(state["cubes"].size(), 1U);
   EXPECT_EQ(state["cubes"][0]["color"], "green");
+}
+
+// The status line of a WebSocket upgrade to `target` with the given Host and Origin (no
+// Origin header when empty); the connection is closed after the response's head.
+std::string upgrade(std::uint16_t port, const std::string& target, const std::string& host,
+                    const std::string& origin) {
+  const int fd = ::socket(AF_INET, SOCK_STREAM, 0);
+  sockaddr_in addr{};
+  addr.sin_family = AF_INET;
+  addr.sin_port = htons(port);
+  addr.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
+  if (::connect(fd, reinterpret_cast<sockaddr*>(&addr), sizeof addr) != 0) {
+    ::close(fd);
+    return "connect failed";
+  }
+  timeval tv{5, 0};
+  ::setsockopt(fd, SOL_SOCKET, SO_RCVTIMEO, &tv, sizeof tv);
+  std::string text = "GET " + target + " HTTP/1.1\r\nHost: " + host +
+                     "\r\nUpgrade: websocket\r\nConnection: Upgrade\r\n"
+                     "Sec-WebSocket-Key: dGhlIHNhbXBsZSBub25jZQ==\r\nSec-WebSocket-Version: 13\r\n";
+  if (!origin.empty()) text += "Origin: " + origin + "\r\n";
+  text += "\r\n";
+  EXPECT_EQ(::send(fd, text.data(), text.size(), 0), static_cast<ssize_t>(text.size()));
+  std::string out;
+  char buf[4096];
+  while (out.find("\r\n") == std::string::npos) {
+    const ssize_t n = ::recv(fd, buf, sizeof buf, 0);
+    if (n <= 0) break;
+    out.append(buf, static_cast<std::size_t>(n));
+  }
+  ::close(fd);
+  return out.substr(0, out.find("\r\n"));
+}
+
+// issue 17: a WebSocket upgrade with `Origin: http://evil.example` was accepted, so any web
+// page could reset the scene, spawn cubes and take pictures through the visitor's browser.
+TEST_F(HttpTest, WebSocketFromAnotherSiteIsRefused) {
+  const std::uint16_t port = server_->port();
+  const std::string self = "127.0.0.1:" + std::to_string(port);
+  EXPECT_EQ(upgrade(port, "/ws", self, "http://evil.example"), "HTTP/1.1 403 Forbidden");
+  EXPECT_EQ(upgrade(port, "/ws", self, "null"), "HTTP/1.1 403 Forbidden");
+  // DNS rebinding: a hostile name resolving to 127.0.0.1 is its own origin, but not this host
+  const std::string evil = "evil.example:" + std::to_string(port);
+  EXPECT_EQ(upgrade(port, "/ws", evil, "http://" + evil), "HTTP/1.1 403 Forbidden");
+  // the page's own origin, and clients that are not browsers (no Origin)
+  EXPECT_EQ(upgrade(port, "/ws", self, "http://" + self), "HTTP/1.1 101 Switching Protocols");
+  const std::string local = "localhost:" + std::to_string(port);
+  EXPECT_EQ(upgrade(port, "/ws", local, "http://" + local), "HTTP/1.1 101 Switching Protocols");
+  EXPECT_EQ(upgrade(port, "/ws", self, ""), "HTTP/1.1 101 Switching Protocols");
+}
+
+// With a token (a simulator serving beyond this machine), the socket and the JSON endpoints
+// need it on every connection; the page's files do not (they hold nothing secret).
+TEST(WebServer, TokenIsNeededForTheSocketAndTheApi) {
+  const auto root = std::filesystem::temp_directory_path() /
+                    ("scaratwin-web-token-" + std::to_string(::getpid()));
+  std::filesystem::create_directories(root);
+  std::ofstream(root / "index.html") << "page";
+  auto robot = load_robot_config_or_default("");
+  ASSERT_TRUE(robot.ok());
+  sim::WorldOptions wo;
+  wo.camera = false;
+  auto world = sim::World::create(*robot, {}, wo);
+  ASSERT_TRUE(world.ok());
+  WebOptions o;
+  o.port = 0;
+  o.root_dir = root.string();
+  o.token = "t0ken";
+  auto server = WebServer::create(**world, o);
+  ASSERT_TRUE(server.ok()) << server.error().message;
+  const std::uint16_t port = (*server)->port();
+  const std::string lan = "192.168.1.20:" + std::to_string(port);
+  const std::string page = "http://" + lan;
+  EXPECT_EQ(upgrade(port, "/ws", lan, page), "HTTP/1.1 403 Forbidden");
+  EXPECT_EQ(upgrade(port, "/ws?token=wrong", lan, page), "HTTP/1.1 403 Forbidden");
+  EXPECT_EQ(upgrade(port, "/ws?token=t0ken", lan, "http://evil.example"), "HTTP/1.1 403 Forbidden");
+  EXPECT_EQ(upgrade(port, "/ws?token=t0ken", lan, page), "HTTP/1.1 101 Switching Protocols");
+  EXPECT_EQ(get(port, "/api/state").rfind("HTTP/1.1 403", 0), 0U);
+  EXPECT_EQ(get(port, "/api/state?token=t0k").rfind("HTTP/1.1 403", 0), 0U);
+  EXPECT_EQ(get(port, "/api/state?token=t0ken").rfind("HTTP/1.1 200", 0), 0U);
+  EXPECT_EQ(body_of(get(port, "/?token=t0ken")), "page");
+  EXPECT_EQ(body_of(get(port, "/")), "page");
+  server->reset();
+  std::filesystem::remove_all(root);
+}
+
+// issue 17: a browser that asks for pictures and never reads them made the server queue
+// them without a bound (300 unread pictures: +60 MB). Beyond max_unread_bytes (16 MiB by
+// default; 1 MiB here, some 50 pictures of this empty scene) the connection is cut, and says
+// so.
+TEST(WebServer, BrowserThatNeverReadsItsRepliesIsCut) {
+  const auto root = std::filesystem::temp_directory_path() /
+                    ("scaratwin-web-unread-" + std::to_string(::getpid()));
+  std::filesystem::create_directories(root);
+  std::ofstream(root / "index.html") << "page";
+  auto robot = load_robot_config_or_default("");
+  ASSERT_TRUE(robot.ok());
+  auto world = sim::World::create(*robot);  // with the camera: pictures of ~0.1-0.3 MB
+  ASSERT_TRUE(world.ok()) << world.error().message;
+  WebOptions o;
+  o.port = 0;
+  o.root_dir = root.string();
+  o.max_unread_bytes = std::size_t{1} << 20;
+  auto server = WebServer::create(**world, o);
+  ASSERT_TRUE(server.ok()) << server.error().message;
+  const std::uint16_t port = (*server)->port();
+
+  const int fd = ::socket(AF_INET, SOCK_STREAM, 0);
+  const int small = 4096;
+  ::setsockopt(fd, SOL_SOCKET, SO_RCVBUF, &small, sizeof small);
+  sockaddr_in addr{};
+  addr.sin_family = AF_INET;
+  addr.sin_port = htons(port);
+  addr.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
+  ASSERT_EQ(::connect(fd, reinterpret_cast<sockaddr*>(&addr), sizeof addr), 0);
+  const std::string hs =
+      "GET /ws HTTP/1.1\r\nHost: 127.0.0.1\r\nUpgrade: websocket\r\n"
+      "Connection: Upgrade\r\nSec-WebSocket-Key: dGhlIHNhbXBsZSBub25jZQ==\r\n"
+      "Sec-WebSocket-Version: 13\r\n\r\n";
+  ASSERT_EQ(::send(fd, hs.data(), hs.size(), 0), static_cast<ssize_t>(hs.size()));
+  testing::internal::CaptureStderr();
+  // masked text frames (mask key 0), never a byte read back
+  const std::string cmd = R"({"cmd":"shoot"})";
+  std::string frame = {static_cast<char>(0x81), static_cast<char>(0x80 | cmd.size()), 0, 0, 0, 0};
+  frame += cmd;
+  for (int i = 0; i < 1000; ++i) {
+    if (::send(fd, frame.data(), frame.size(), MSG_NOSIGNAL) < 0) break;
+    if (i > 10 && (*server)->clients() == 0) break;  // cut
+    std::this_thread::sleep_for(std::chrono::milliseconds(5));
+  }
+  const auto end = std::chrono::steady_clock::now() + std::chrono::seconds(60);
+  while ((*server)->clients() > 0 && std::chrono::steady_clock::now() < end) {
+    std::this_thread::sleep_for(std::chrono::milliseconds(50));
+  }
+  const std::string log = testing::internal::GetCapturedStderr();
+  EXPECT_EQ((*server)->clients(), 0U) << "the browser that never reads is still served";
+  EXPECT_NE(log.find("bytes of replies unread (limit 1048576): connection closed"),
+            std::string::npos)
+      << log;
+  ::close(fd);
+  server->reset();
+  std::filesystem::remove_all(root);
 }
 
 TEST(WebServer, RefusesAMissingPageABadAddressAndABusyPort) {

@@ -47,6 +47,10 @@ struct HubOptions {
   unsigned baud = 115200;
   std::string sim_host = "127.0.0.1";
   std::uint16_t sim_port = 55016;
+  std::string sim_token;  // the simulator's access token when it asks for one (security.md)
+  // "observe": the hub only watches the simulator (the stop command, which may run while
+  // another hub controls it); empty: it controls it (one controlling client at a time)
+  std::string sim_role;
   int report_rate_hz = 100;           // robot state reports while connected
   double hello_timeout_s = 5.0;       // a real board spends ~2 s in its bootloader
   double desync_threshold_m = 0.003;  // tool deviation that raises the desync alarm
@@ -74,10 +78,12 @@ struct HomingCheck {
 
 // Live mirror counters (also shown by the demo's progress line).
 struct MirrorCounters {
-  std::uint64_t frames = 0;      // JD frames forwarded
-  std::uint64_t applied = 0;     // JA replies received
-  std::uint64_t lost = 0;        // ST sequence gaps
-  double last_latency_ms = 0.0;  // hub receive -> simulator applied, last frame
+  std::uint64_t frames = 0;           // JD frames forwarded
+  std::uint64_t applied = 0;          // JA replies received
+  std::uint64_t lost = 0;             // ST sequence gaps
+  std::uint64_t not_applied = 0;      // frames forwarded whose JA never came (refused, link lost)
+  std::uint64_t sim_link_losses = 0;  // times the simulator link went down since connect
+  double last_latency_ms = 0.0;       // hub receive -> simulator applied, last frame
   double mean_latency_ms = 0.0;
 };
 
@@ -109,6 +115,8 @@ class Hub {
   // Forward every state report to the simulator (JD) while on.
   void set_mirror(bool on);
   MirrorCounters mirror_counters() const;
+  // The simulator link is up (it reconnects by itself after a loss).
+  bool sim_connected() const { return sim_link_up(); }
 
   // --- physical robot ---------------------------------------------------------------------
   PhysicalState physical() const;
@@ -190,6 +198,15 @@ class Hub {
   void on_robot_packet(protocol::SerialFromDevice&& msg, const transport::RxPacket& rx);
   void on_device_state(const protocol::DeviceState& st, const transport::RxPacket& rx);
   void forward_to_sim(const PhysicalState& ps);
+  // The simulator link went down or came back (io thread): a loss during a trajectory stops
+  // the robot and fails the trajectory; a return sends the hello (and the mirror mode) again.
+  void on_sim_link(transport::LinkState state);
+  // Why the trajectory in progress must end (empty: it may go on). mu_ held.
+  bool motion_aborted() const { return interrupted_ || !motion_abort_.empty(); }
+  bool sim_link_up() const {
+    std::lock_guard<std::mutex> lock(mu_);
+    return sim_up_;
+  }
   void add_sample(SampleSource source, double t_s, std::int64_t seq, const JointVector& q,
                   double grip_deg);
   Result<protocol::DeviceEvent> wait_event(protocol::DeviceEventCode code, double timeout_s,
@@ -200,6 +217,8 @@ class Hub {
   Status check(const char* what, Result<transport::RobotChannel::Reply> r);
   // Waits for a state report whose flags satisfy `done` (fails when interrupted).
   Status wait_flags(const std::function<bool(std::uint32_t)>& done, double timeout_s);
+  // Waits for the robot's stop confirmation (EV 6) after event number `mark`.
+  Status wait_stopped(std::uint64_t mark, double timeout_s);
   // Waits until no motor runs (a hold at rest counts as at rest).
   Status wait_motors_at_rest(double timeout_s);
 
@@ -230,6 +249,10 @@ class Hub {
   std::optional<PlanTracker> tracker_;
   std::atomic<int> desync_alarms_{0};  // over every trajectory run
   std::atomic<bool> interrupted_{false};
+  bool sim_up_ = true;            // the simulator link is connected (mu_)
+  bool in_motion_ = false;        // a trajectory is being run (mu_)
+  std::string motion_abort_;      // why the trajectory in progress must end (mu_)
+  std::uint64_t abort_mark_ = 0;  // event count when the link watcher sent its stop (mu_)
   DesyncMonitor desync_{0.0, 1};  // the current trajectory's, reset when it starts
   HomingCheck last_homing_;
   // the side of its dead band each joint rests on (a calibrated backlash), from the reports

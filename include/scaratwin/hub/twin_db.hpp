@@ -49,7 +49,7 @@ struct RunInfo {
   int64_t ref = 0;
   std::string kind;  // mirror, control, prediction, replay, script, demo
   std::string label;
-  std::string status;  // running, ok, failed
+  std::string status;  // running, ok, failed, aborted (its process died while it ran)
   double started_unix_s = 0.0;
   double duration_s = 0.0;
 };
@@ -62,7 +62,8 @@ struct MetricRecord {
 
 class TwinDb {
  public:
-  // Opens or creates the database file (and its tables).
+  // Opens or creates the database file (and its tables). A run left 'running' by a process
+  // of this machine that no longer exists (killed mid-run) is marked 'aborted'.
   static Result<std::unique_ptr<TwinDb>> open(const std::filesystem::path& path);
   ~TwinDb();
   TwinDb(const TwinDb&) = delete;
@@ -102,6 +103,7 @@ class TwinDb {
  private:
   TwinDb(sqlite3* db, std::filesystem::path path);
   Status exec(const char* sql);
+  Status mark_aborted_runs();
   Status begin_batch();
   Result<sqlite3_stmt*> prepare(const char* sql);
 

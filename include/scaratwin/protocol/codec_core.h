@@ -56,8 +56,9 @@ enum ErrorCode : uint8_t {
   kErrInternal = 15,
   kErrTimeout = 16,       // host-side only, never sent
   kErrDisconnected = 17,  // host-side only, never sent
+  kErrAccess = 18,        // simulator link: connection refused (token, controller, observer)
 };
-const uint8_t kErrMaxCode = 17;
+const uint8_t kErrMaxCode = 18;
 
 // Short snake_case name of an error code ("line_too_long"), "unknown" for others.
 const char* error_name(uint8_t code);

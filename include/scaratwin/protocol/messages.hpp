@@ -22,14 +22,20 @@
 
 namespace scaratwin::protocol {
 
+using core::kErrAccess;
 using core::kProtocolVersion;
 using ErrorCode = core::ErrorCode;
 
 // --- shared by both links -----------------------------------------------------------------
 
-// HI request (hub -> simulator, host -> device).
+// HI request (hub -> simulator, host -> device). On the simulator link a hello may say who
+// is connecting: `role` "control" (the default when empty) or "observe" (queries only), and
+// the simulator's access token when it asks for one (docs/security.md). Both are empty on
+// the serial link.
 struct Hello {
   std::int32_t version = kProtocolVersion;
+  std::string role;   // "", "control" or "observe"
+  std::string token;  // "" or [A-Za-z0-9_.-]{1,32}
 
   friend bool operator==(const Hello&, const Hello&) = default;
 };

@@ -45,6 +45,12 @@ struct ServerOptions {
   std::string bind_address = "127.0.0.1";
   std::uint16_t port = 55016;   // 0: an ephemeral port (see SimServer::port())
   std::string save_images_dir;  // if set, every shot is also saved there as shot_<n>.png
+  // Access (docs/security.md). With a token, every connection must open with
+  // `HI,1,control|observe,<token>,`; without one, anything but HTTP is admitted. One
+  // controlling client at a time: a second one is refused (ER,18,2) unless it says
+  // `HI,1,observe,...`; an observer may only query (HI, PI, QS, OP). A connection whose first
+  // line is an HTTP request is closed unanswered and nothing of it runs.
+  std::string token;  // [A-Za-z0-9_.-]{1,32}, or empty
   // Called on the io thread after every joint frame the simulation accepted (may be empty).
   std::function<void(const JointFrame&)> on_joint_frame;
   // Called on the io thread when the hub says what the twin is doing (TW): "mirror",

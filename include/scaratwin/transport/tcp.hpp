@@ -2,13 +2,18 @@
 // are text lines ("ID,v1,v2,...,\n"); camera images come as "IM,<nbytes>,\n" followed by the
 // raw PNG bytes, which the splitter hands through intact (RxPacket::payload). Sockets use
 // TCP_NODELAY and keepalive. The client reconnects on its own after a loss, with a delay
-// that doubles from reconnect_min up to reconnect_max; the server keeps accepting, and a new
-// peer replaces the current one (so a restarted hub is served at once, not refused).
+// that doubles from reconnect_min up to reconnect_max; the server keeps accepting. Without an
+// admission function a new peer replaces the current one; with one (TcpServerOptions::admit)
+// each new connection is judged on its first line before anything of it is delivered: it
+// becomes the controlling peer, an observer (served apart, through `observe`), or is refused
+// with a reply and closed.
 #pragma once
 
 #include <cstdint>
+#include <functional>
 #include <memory>
 #include <string>
+#include <string_view>
 
 #include "scaratwin/transport/link.hpp"
 
@@ -38,10 +43,35 @@ class TcpClient : public Link {
   using Link::Link;
 };
 
+// What becomes of a new connection (TcpServerOptions::admit).
+enum class Admission {
+  kControl,  // the link's peer: its packets go to the link's handler or queue
+  kObserve,  // served apart: each of its frames goes to TcpServerOptions::observe
+  kRefuse,   // `reply` is written, then the connection is closed; nothing of it is delivered
+};
+struct AdmissionDecision {
+  Admission admission = Admission::kControl;
+  std::string reply;  // kRefuse only
+};
+// Judges a connection on its first line (without '\n'; cut at the line limit, or what came
+// before first_line_timeout passed: then `complete` is false). A connection that ends before
+// its first line is closed without a judgement.
+// `peer` is "address:port"; `controller` is true while a controlling peer is attached. Runs on
+// the io thread.
+using AdmitFn = std::function<AdmissionDecision(std::string_view first_line, bool complete,
+                                                const std::string& peer, bool controller)>;
+// One frame of an observer connection (its first line included) -> the bytes to answer.
+// Runs on the io thread.
+using ObserveFn = std::function<std::string(const Frame& frame)>;
+
 struct TcpServerOptions {
   std::string bind_address = kDefaultTcpHost;  // "0.0.0.0" to listen on every interface
   std::uint16_t port = kDefaultTcpPort;        // 0: an ephemeral port (see TcpServer::port())
   LinkOptions link = tcp_link_defaults();
+  AdmitFn admit;                       // empty: every new peer replaces the current one
+  ObserveFn observe;                   // needed for Admission::kObserve
+  Duration first_line_timeout{10000};  // a connection silent this long is judged as it is
+  std::size_t max_observers = 8;       // more observers are closed at once
 };
 
 class TcpServer : public Link {

@@ -31,6 +31,12 @@ struct WebOptions {
   std::string root_dir = default_web_root();  // folder holding index.html and its assets
   double feed_hz = 30.0;                      // state messages per second, 1..120
   int path_every = 5;                         // tool path in every n-th state message
+  // Access (docs/security.md): with a token, /ws and /api/ need ?token=<token>. A WebSocket
+  // upgrade whose Origin is not the page's own (scheme://Host) is refused with 403, and so is
+  // one naming a Host that is not this machine while no token is set (DNS rebinding).
+  std::string token;
+  // Replies (pictures, ...) a browser leaves unread beyond this are not queued: it is cut.
+  std::size_t max_unread_bytes = std::size_t{16} << 20;
 };
 
 // Link figures for the feed; returns an empty status when the simulator has no link data.

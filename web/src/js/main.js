@@ -123,7 +123,11 @@ function drawPlots() {
 setInterval(drawPlots, 100);
 
 // --- feed -------------------------------------------------------------------------------------
-const wsUrl = `${location.protocol === 'https:' ? 'wss' : 'ws'}://${location.host}/ws`;
+// a simulator serving beyond this machine asks for its access token (docs/security.md): the
+// page passes on the one it was opened with (?token=...)
+const token = new URLSearchParams(location.search).get('token');
+const wsUrl = `${location.protocol === 'https:' ? 'wss' : 'ws'}://${location.host}/ws` +
+  (token ? `?token=${encodeURIComponent(token)}` : '');
 const feed = new Feed(wsUrl, {
   onStatus(status) {
     const pill = $('conn');
