@@ -50,7 +50,7 @@ struct KeyInfo {
   int32_t max;
 };
 
-// CF keys 1..9; the speed limit keeps at most one step per axis per two ticks
+// CF keys 1..10; the speed limit keeps at most one step per axis per two ticks
 const KeyInfo kKeys[] = {
     {&Settings::max_speed, 1, (int32_t)(kTickHz / 2)},
     {&Settings::max_accel, 1, 60000},
@@ -61,6 +61,7 @@ const KeyInfo kKeys[] = {
     {&Settings::jog_speed, 1, 5000},
     {&Settings::servo_speed, 100, 60000},
     {&Settings::coupling_permille, 0, 5000},
+    {&Settings::companion, 0, 1},
 };
 constexpr int32_t kNumKeys = (int32_t)(sizeof(kKeys) / sizeof(kKeys[0]));
 

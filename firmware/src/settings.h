@@ -2,7 +2,7 @@
 // may tune at run time without reflashing, changed with CF and kept in EEPROM as one block
 // with a layout version and a Fletcher-16 checksum: a blank, corrupted or older EEPROM falls
 // back to the defaults of fw_config.h. The CF keys are numbered; keys 1-6 are those of
-// docs/protocol.md, 7-9 are firmware extras.
+// docs/protocol.md, 7-10 are firmware extras.
 #pragma once
 
 #include <stdint.h>
@@ -11,7 +11,7 @@
 
 namespace fw {
 
-constexpr uint8_t kSettingsVersion = 1;
+constexpr uint8_t kSettingsVersion = 2;  // 2: the companion key (10)
 
 struct Settings {
   uint8_t version;
@@ -24,6 +24,7 @@ struct Settings {
   uint16_t jog_speed;          // steps/s for JG and the buttons  (CF key 7)
   uint16_t servo_speed;        // cdeg/s, wrist and gripper       (CF key 8)
   uint16_t coupling_permille;  // J3 motor steps per 1000 J2 steps (CF key 9)
+  uint16_t companion;          // 1: also read the companion dialect (CF key 10)
   uint16_t servo_min_us;       // pulse at 0 deg
   uint16_t servo_max_us;       // pulse at 180 deg
   uint16_t pulloff;            // steps backed off a switch after it closed

@@ -233,7 +233,11 @@ TEST(Settings, KeysHaveRangesAndUnknownKeysAreRefused) {
   EXPECT_EQ(settings_set(s, 1, static_cast<int32_t>(kTickHz)), kSettingBadValue)
       << "the step generator emits at most one step per two ticks";
   EXPECT_EQ(settings_get(s, 0, &v), kSettingUnknownKey);
-  EXPECT_EQ(settings_set(s, 10, 1), kSettingUnknownKey);
+  EXPECT_EQ(s.companion, 0) << "the companion dialect is off by default";
+  EXPECT_EQ(settings_set(s, 10, 1), kSettingOk);
+  EXPECT_EQ(s.companion, 1);
+  EXPECT_EQ(settings_set(s, 10, 2), kSettingBadValue);
+  EXPECT_EQ(settings_set(s, 11, 1), kSettingUnknownKey);
 }
 
 TEST(Servo, PulseAndAngleConvertBothWays) {

@@ -1,0 +1,113 @@
+// The companion serial dialect of the firmware (setting 10), end to end: the real firmware in
+// the emulator, its pty as the companion scripts' serialport, and the emulator's truth (the
+// STEP/DIR pins, exact robot) as the oracle. The frame's zero is where each switch closed,
+// computed here from the robot description's [endstops] by hand.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <string>
+
+#include "robot_harness.hpp"
+
+namespace scaratwin::test {
+namespace {
+
+// The paper's robot: Z switch at d1 = 0.1225 m x 205,560 steps/m, J2 at 117 deg x 945 steps/rad,
+// J3 at -77 deg x 1,455 steps/rad as a joint count plus 0.8 x the J2 motor's count when J3
+// homes (J2 backed off its switch by 40 steps).
+const long kZeroZ = std::lround(0.1225 * 205560.0);
+const long kZeroJ2 = std::lround(117.0 * M_PI / 180.0 * 945.0);
+const long kZeroJ3 = std::lround(-77.0 * M_PI / 180.0 * 1455.0) +
+                     static_cast<long>(std::floor(0.8 * static_cast<double>(kZeroJ2 - 40)));
+
+// Waits until the truth shows every motor at rest at (z, j2, j3).
+bool reaches(Robot& r, long z, long j2, long j3) {
+  for (int i = 0; i < 2000; ++i) {
+    const Truth t = r.truth();
+    if (t.i("z") == z && t.i("j2") == j2 && t.i("j3") == j3) return true;
+    r.line(0.005);
+  }
+  return false;
+}
+
+class CompanionSerial : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    ASSERT_TRUE(robot.ok()) << robot.error();
+    ASSERT_EQ(robot.request("SR=0=\n").value_or(""), "AK=SR=0=");
+    ASSERT_EQ(robot.request("CF=10=1=\n").value_or(""), "AK=CF=1=");
+    ASSERT_TRUE(robot.home());
+  }
+  Robot robot;
+};
+
+TEST_F(CompanionSerial, TargetsInTheSwitchFrameMoveAllThreeMotorsTogether) {
+  EXPECT_EQ(kZeroZ, 25181);  // the description's numbers, as docs/firmware.md gives them
+  EXPECT_EQ(kZeroJ2, 1930);
+  EXPECT_EQ(kZeroJ3, -443);
+  const Truth before = robot.truth();
+  // as the companion scripts' numberTran: three targets, then m; no replies
+  robot.send("z-6000\ny-2400\nx1500.6\n");
+  EXPECT_FALSE(robot.line(0.3)) << "an accepted target is not answered";
+  EXPECT_EQ(robot.truth().u("steps_z"), before.u("steps_z")) << "a target alone moves nothing";
+  robot.send("m\n");
+  ASSERT_TRUE(reaches(robot, kZeroZ - 6000, kZeroJ2 - 2400, kZeroJ3 + 1501));
+  robot.send("QS=\n");
+  auto st = robot.wait_for("ST=");
+  ASSERT_TRUE(st);
+  auto rep = parse_report(*st);
+  ASSERT_TRUE(rep);
+  EXPECT_EQ(rep->z(), kZeroZ - 6000) << "the firmware's own count agrees with the truth";
+  // an m with unchanged targets does not move
+  const Truth at = robot.truth();
+  robot.send("m\nPI=3=\n");
+  EXPECT_EQ(robot.wait_for("AK=PI=").value_or(""), "AK=PI=3=");
+  EXPECT_EQ(robot.truth().u("steps_j2"), at.u("steps_j2"));
+}
+
+TEST_F(CompanionSerial, RefusedTargetsAnswerAnErrorAndMoveNothing) {
+  const Truth before = robot.truth();
+  // Z: 2,056..24,667 counts is -23,125..-514 in the switch frame
+  robot.send("z-30000\n");
+  EXPECT_EQ(robot.line().value_or(""), "error: z-30000 beyond the limits -23125..-514");
+  robot.send("z-400\n");
+  EXPECT_EQ(robot.line().value_or(""), "error: z-400 beyond the limits -23125..-514");
+  // after homing the J2 target is where J2 stands: count 0, so J3's range is its joint limits
+  // -1904..5205 (no coupling share) minus the zero -443
+  robot.send("x7200\n");
+  EXPECT_EQ(robot.line().value_or(""), "error: x7200 beyond the limits -1461..5648");
+  robot.send("y1abc\nq12\nmx\n");
+  EXPECT_EQ(robot.line().value_or(""), "error: y1abc is not a whole number of steps");
+  EXPECT_EQ(robot.line().value_or(""), "error: q12 unknown (z, y, x or m)");
+  EXPECT_EQ(robot.line().value_or(""), "error: mx unknown (z, y, x or m)");
+  // a J2 target accepted after a J3 target can carry J3 out: x-1400 is inside with J2 at count
+  // 30 (share 24) but not at count 1800 (share 1440: -1904 + 1440 + 443 = -21): m refuses it
+  // and moves nothing
+  robot.send("y-1900\nx-1400\ny-130\nm\n");
+  EXPECT_EQ(robot.line().value_or(""), "error: m: x-1400 beyond the limits -21..7088");
+  robot.send("PI=1=\n");
+  EXPECT_EQ(robot.wait_for("AK=PI=").value_or(""), "AK=PI=1=");
+  const Truth after = robot.truth();
+  for (const char* k : {"steps_z", "steps_j2", "steps_j3"}) {
+    EXPECT_EQ(after.u(k), before.u(k)) << k << ": a refused target moved a motor";
+  }
+}
+
+TEST(CompanionSerialOff, CompanionLinesAreVersionOneErrorsAndViceVersa) {
+  Robot r;
+  ASSERT_TRUE(r.ok()) << r.error();
+  ASSERT_EQ(r.request("SR=0=\n").value_or(""), "AK=SR=0=");
+  // off (the default): a companion line is a v1 line with a bad character in its code (at 0)
+  EXPECT_EQ(r.request("z100\n").value_or(""), "ER=2=0=");
+  EXPECT_EQ(r.request("CF=10=\n").value_or(""), "AK=CF=0=");
+  // on: a v1 line is still v1, never a companion target
+  ASSERT_EQ(r.request("CF=10=1=\n").value_or(""), "AK=CF=1=");
+  EXPECT_EQ(r.request("PI=5=\n").value_or(""), "AK=PI=5=");
+  EXPECT_EQ(r.request("Z100\n").value_or(""), "ER=2=1=");
+  // m before homing
+  r.send("m\n");
+  EXPECT_EQ(r.line().value_or(""), "error: m not homed");
+}
+
+}  // namespace
+}  // namespace scaratwin::test
