@@ -57,6 +57,8 @@ bool g_halted = false;
 volatile bool g_rt_stop = false;    // set by '!' in the receive interrupt
 volatile bool g_rt_resume = false;  // set by '~'
 bool g_stop_pending = false;        // EV 6 once the step generator confirms
+bool g_baud_pending = false;        // CF 11 changed the rate: switch once its AK has left
+uint32_t g_baud_idle_us = 0;        // when the transmit ring was first seen empty
 
 struct Trajectory {
   bool active;
@@ -265,6 +267,24 @@ void cmd_cf(const core::Packet& p) {
   settings_save(g_settings);
   settings_get(g_settings, p.i32(0), &value);
   reply_ak('C', 'F', true, value);
+  if (p.i32(0) == 11) {
+    g_baud_pending = true;  // the reply goes out at the old rate
+    g_baud_idle_us = 0;
+  }
+}
+
+// Switches the serial rate once the CF 11 reply has left: the ring empty, then 3 ms for the
+// UART's last two bytes (2.1 ms at 9600 baud).
+void handle_baud(uint32_t now) {
+  if (!g_baud_pending) return;
+  if (!serial_tx_empty()) {
+    g_baud_idle_us = 0;
+    return;
+  }
+  if (g_baud_idle_us == 0) g_baud_idle_us = now | 1u;
+  if ((uint32_t)(now - g_baud_idle_us) < 3000u) return;
+  serial_set_baud((uint32_t)g_settings.baud_hundreds * 100u);
+  g_baud_pending = false;
 }
 
 void cmd_jg(const core::Packet& p) {
@@ -421,6 +441,7 @@ void handle_packet(const core::Packet& p) {
 uint8_t g_lost_lines = 0;  // lines the full receive ring dropped, not yet answered
 
 void read_serial() {
+  if (g_baud_pending) return;  // replies wait for the new rate
   // while a companion homing or move runs nothing is read, as the companion sketch reads
   // nothing then (real-time bytes still act: they never enter the ring)
   if (g_comp.busy) return;
@@ -564,7 +585,7 @@ void controller_realtime(uint8_t byte) {
 void controller_init() {
   settings_load(g_settings);
   clock_init();
-  serial_init(115200, controller_realtime);
+  serial_init((uint32_t)g_settings.baud_hundreds * 100u, controller_realtime);
   stepper_init();
   buttons_init();
   servo_init(g_settings.servo_min_us, g_settings.servo_max_us, (int16_t)g_settings.grip_open_cdeg,
@@ -595,7 +616,9 @@ void controller_poll() {
                                        : g_settings.jog_speed);
   if (g_traj.active) servo_set_target(kServoWrist, stepper_wrist_goal());
   servo_update(now, g_settings.servo_speed);
-  report_poll(now, flags(), queue_free());
+  // while the rate changes nothing new is sent: the line must fall quiet first
+  if (!g_baud_pending) report_poll(now, flags(), queue_free());
+  handle_baud(now);
 }
 
 bool controller_busy() {

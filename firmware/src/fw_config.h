@@ -78,7 +78,8 @@ constexpr int32_t kDefaultHome[kNumAxes] = {desc::kHomeZ, desc::kHomeJ2, desc::k
 
 // firmware settings that the robot description does not hold
 constexpr uint16_t kDefaultReportHz = 100;
-constexpr uint16_t kDefaultHomingSpeed = 1500;  // steps/s while seeking an endstop
-constexpr uint16_t kDefaultJogSpeed = 1000;     // steps/s for buttons and JG
+constexpr uint16_t kDefaultBaudHundreds = 1152;  // 115200 baud
+constexpr uint16_t kDefaultHomingSpeed = 1500;   // steps/s while seeking an endstop
+constexpr uint16_t kDefaultJogSpeed = 1000;      // steps/s for buttons and JG
 
 }  // namespace fw
