@@ -366,6 +366,12 @@ void companion_line() {
   }
 }
 
+// True if the next received byte starts a companion line.
+bool companion_line_next() {
+  const int16_t b = serial_peek();
+  return g_settings.companion != 0 && b >= 'a' && b <= 'z';
+}
+
 // Routes one received byte of a companion line; true if the byte was one.
 bool companion_byte(uint8_t b) {
   const bool start = g_comp.at_line_start;
@@ -442,9 +448,6 @@ uint8_t g_lost_lines = 0;  // lines the full receive ring dropped, not yet answe
 
 void read_serial() {
   if (g_baud_pending) return;  // replies wait for the new rate
-  // while a companion homing or move runs nothing is read, as the companion sketch reads
-  // nothing then (real-time bytes still act: they never enter the ring)
-  if (g_comp.busy) return;
   // a companion error line is longer than a v1 reply
   while (serial_tx_free() >= (g_comp.in_line ? kCompanionReserve : kReplyReserve)) {
     if (g_lost_lines != 0) {
@@ -453,20 +456,20 @@ void read_serial() {
       reply_er(core::kErrQueueFull, true, 0);
       continue;
     }
+    // while a companion homing or move runs, the next companion line waits in the ring, as
+    // the companion sketch reads nothing then; v1 packets (and lost lines) are served meanwhile
+    if (g_comp.busy && g_comp.at_line_start && companion_line_next()) return;
     uint8_t lost = 0;
     int16_t b = serial_read(&lost);
     if (b == kSerialLost) {
-      g_decoder.reset();  // the start of the first lost line
+      g_decoder.reset();       // the start of the first lost line
       g_comp.in_line = false;  // a companion line lost too; the next byte starts a line
       g_comp.at_line_start = true;
       g_lost_lines = lost;
       continue;
     }
     if (b < 0) return;
-    if (companion_byte((uint8_t)b)) {
-      if (g_comp.busy) return;
-      continue;
-    }
+    if (companion_byte((uint8_t)b)) continue;
     core::Event ev;
     uint8_t type = g_decoder.push((uint8_t)b, &ev);
     if (type == core::kEventPacket) {

@@ -101,6 +101,12 @@ int16_t serial_read(uint8_t* lost_lines) {
   return b;
 }
 
+int16_t serial_peek() {
+  uint8_t tail = g_rx_tail;
+  if (g_loss_lines != 0 && g_loss_at == tail) return kSerialLost;
+  return tail == g_rx_head ? (int16_t)-1 : (int16_t)g_rx[tail];
+}
+
 bool serial_available() { return g_rx_tail != g_rx_head || g_loss_lines != 0; }
 
 uint8_t serial_tx_free() { return (uint8_t)((g_tx_tail - g_tx_head - 1) & (kTxSize - 1)); }

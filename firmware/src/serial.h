@@ -25,6 +25,8 @@ constexpr int16_t kSerialLost = -2;
 // lost to a full ring at this place in the stream (the bytes of the first one read so far
 // belong to it).
 int16_t serial_read(uint8_t* lost_lines);
+// The next received byte without taking it, -1 or kSerialLost as serial_read() would answer.
+int16_t serial_peek();
 // True if a received byte (or a loss) is waiting.
 bool serial_available();
 // Free bytes in the transmit ring.

@@ -50,14 +50,21 @@ TEST_F(CompanionSerial, TargetsInTheSwitchFrameMoveAllThreeMotorsTogether) {
   robot.send("z-6000\ny-2400\nx1500.6\n");
   EXPECT_FALSE(robot.line(0.3)) << "an accepted target is not answered";
   EXPECT_EQ(robot.truth().u("steps_z"), before.u("steps_z")) << "a target alone moves nothing";
-  robot.send("m\n");
-  ASSERT_TRUE(reaches(robot, kZeroZ - 6000, kZeroJ2 - 2400, kZeroJ3 + 1501));
+  // m, then at once a v1 query and the next companion targets: the query is answered while the
+  // motors run; the companion lines wait for the move to end, as the sketch reads nothing then
+  robot.send("m\nQS=\nz-5000\nm\n");
+  auto during = robot.wait_for("ST=");
+  ASSERT_TRUE(during);
+  auto moving = parse_report(*during);
+  ASSERT_TRUE(moving);
+  EXPECT_EQ(moving->flags() & 2, 2) << "v1 is served during the move: " << *during;
+  ASSERT_TRUE(reaches(robot, kZeroZ - 5000, kZeroJ2 - 2400, kZeroJ3 + 1501));
   robot.send("QS=\n");
   auto st = robot.wait_for("ST=");
   ASSERT_TRUE(st);
   auto rep = parse_report(*st);
   ASSERT_TRUE(rep);
-  EXPECT_EQ(rep->z(), kZeroZ - 6000) << "the firmware's own count agrees with the truth";
+  EXPECT_EQ(rep->z(), kZeroZ - 5000) << "the firmware's own count agrees with the truth";
   // an m with unchanged targets does not move
   const Truth at = robot.truth();
   robot.send("m\nPI=3=\n");
