@@ -290,8 +290,13 @@ TEST_F(CompanionServerTest, NewObjSpawnsAndModGrabCarriesTheCube) {
   up[0] += 0.03;
   c.send(mod(up));
   ASSERT_TRUE(handled(4));
-  std::this_thread::sleep_for(std::chrono::milliseconds(100));
-  auto lifted = cubes();
+  // the held cube follows at the world's next steps (an event, not a time: wait for it)
+  std::vector<CubeState> lifted;
+  for (int i = 0; i < 1000; ++i) {
+    lifted = cubes();
+    if (lifted.size() == 1 && lifted[0].pos_m[2] - cs[0].pos_m[2] > 0.02) break;
+    std::this_thread::sleep_for(std::chrono::milliseconds(5));
+  }
   ASSERT_EQ(lifted.size(), 1u);
   EXPECT_NEAR(lifted[0].pos_m[2] - cs[0].pos_m[2], 0.03, 0.003);
   c.send(frame("ModGrab:0"));
