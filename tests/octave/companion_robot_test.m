@@ -16,7 +16,12 @@ function line = next_line(s, timeout_s)
     assert(toc(t0) < timeout_s, 'no line from the firmware within %g s', timeout_s);
     pause(0.01);
   end
-  pause(0.05);
+  % the whole line: wait until no more bytes come (readline fails on a partial one)
+  n = -1;
+  while s.NumBytesAvailable ~= n
+    n = s.NumBytesAvailable;
+    pause(0.05);
+  end
   line = strtrim(readline(s));
 end
 
