@@ -30,11 +30,12 @@ function counts = truth(side)
   write(side, uint8(sprintf('query\n')));
   text = '';
   t0 = tic;
-  while isempty(strfind(text, sprintf('\n')))
+  while isempty(regexp(text, 'TR [^\n]*\n', 'once'))
     assert(toc(t0) < 5, 'no TR line');
     n = side.NumBytesAvailable;
     if n > 0, text = [text, char(reshape(read(side, n), 1, []))]; else, pause(0.005); end
   end
+  text = regexp(text, 'TR [^\n]*', 'match', 'once');
   counts = [sscanf(regexp(text, ' z=-?\d+', 'match', 'once'), ' z=%d'), ...
             sscanf(regexp(text, ' j2=-?\d+', 'match', 'once'), ' j2=%d'), ...
             sscanf(regexp(text, ' j3=-?\d+', 'match', 'once'), ' j3=%d')];
@@ -58,6 +59,10 @@ pkg load instrument-control;
 s = serialport(pty, 115200);
 configureTerminator(s, 'LF');
 side = tcpclient('127.0.0.1', side_port);
+% the truth only when asked (it is published at 100 Hz otherwise)
+write(side, uint8(sprintf('rate 0\n')));
+pause(0.3);
+if side.NumBytesAvailable > 0, read(side, side.NumBytesAvailable); end
 % setup in version 1 (the same port): no state reports, the dialect on, home
 writeline(s, 'SR=0=');
 pause(0.3);
