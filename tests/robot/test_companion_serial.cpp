@@ -6,6 +6,7 @@
 
 #include <cmath>
 #include <string>
+#include <vector>
 
 #include "robot_harness.hpp"
 
@@ -98,6 +99,40 @@ TEST_F(CompanionSerial, RefusedTargetsAnswerAnErrorAndMoveNothing) {
   for (const char* k : {"steps_z", "steps_j2", "steps_j3"}) {
     EXPECT_EQ(after.u(k), before.u(k)) << k << ": a refused target moved a motor";
   }
+}
+
+// A host that overruns the receive buffer while an m move keeps the companion lines waiting
+// (the 128-byte ring fills behind the waiting line): each lost line is answered ER=6=0= in its
+// place (docs/protocol.md section 8), the waiting line is carried out, and the line after the
+// loss starts afresh, in either dialect.
+TEST_F(CompanionSerial, ALineLostWhileAMoveRunsIsAnsweredInItsPlace) {
+  const long j3 = robot.truth().i("j3");
+  // the firmware counts up to 255 lost lines in a row (serial.cpp): 200 lines, of which the
+  // ring keeps about 12 while the move runs
+  constexpr int kLines = 200;
+  std::string burst = "y-2400\nm\nz-5000\n";  // z waits until the J2 move has ended
+  for (int k = 0; k < kLines; ++k) burst += "PI=" + std::to_string(1000 + k) + "=\n";
+  robot.send(burst);  // 2,000 bytes at once
+  std::vector<std::string> replies;
+  while (static_cast<int>(replies.size()) < kLines) {
+    auto l = robot.line(20.0);
+    ASSERT_TRUE(l) << "only " << replies.size() << " replies to " << kLines << " lines";
+    replies.push_back(*l);
+  }
+  int lost = 0;
+  for (int k = 0; k < kLines; ++k) {
+    const std::string& r = replies[static_cast<std::size_t>(k)];
+    if (r == "ER=6=0=") {
+      ++lost;
+    } else {
+      EXPECT_EQ(r, "AK=PI=" + std::to_string(1000 + k) + "=") << "reply " << k;
+    }
+  }
+  EXPECT_GT(lost, 0) << "the burst did not overrun the buffer: the test proves nothing";
+  // the line after the loss is read from its start: a companion line, then a v1 line
+  robot.send("z-4000\nm\nPI=7=\n");
+  EXPECT_EQ(robot.line().value_or(""), "AK=PI=7=") << "no extra reply, no error line";
+  EXPECT_TRUE(reaches(robot, kZeroZ - 4000, kZeroJ2 - 2400, j3));
 }
 
 TEST(CompanionSerialOff, CompanionLinesAreVersionOneErrorsAndViceVersa) {
