@@ -12,6 +12,7 @@
 
 #include "scaratwin/config/robot_config.hpp"
 #include "scaratwin/core/units.hpp"
+#include "scaratwin/sim/companion.hpp"
 #include "scaratwin/sim/server.hpp"
 #include "scaratwin/sim/world.hpp"
 #include "scaratwin/web/link_monitor.hpp"
@@ -42,6 +43,7 @@ struct Args {
   int http_port = 8080;
   std::string web_root;
   std::string token;
+  int companion_port = -1;  // -1: off
 };
 
 // 127.0.0.0/8 and ::1: only this machine can connect.
@@ -117,6 +119,10 @@ int main(int argc, char** argv) {
   app.add_option(
       "--web-root", a.web_root,
       "folder of the built page (default: the build tree's, or <prefix>/share/scaratwin/web)");
+  app.add_option("--companion-port", a.companion_port,
+                 "also serve the paper's companion TCP dialect (its MATLAB/Octave scripts use "
+                 "55012) on this port, 0 for any free port (default: off; docs/protocol.md "
+                 "section 13)");
   CLI11_PARSE(app, argc, argv);
 
   auto robot = load_robot_config_or_default(a.config_path);
@@ -233,11 +239,28 @@ int main(int argc, char** argv) {
       std::fprintf(stderr, "scaratwin-sim: no browser UI: %s\n", ui.error().message.c_str());
     }
   }
+  std::unique_ptr<sim::CompanionServer> companion;
+  if (a.companion_port < -1 || a.companion_port > 65535) {
+    return fail(
+        fmt::format("--companion-port {}: expected 0..65535 (0: any free port)", a.companion_port));
+  }
+  if (a.companion_port >= 0) {
+    sim::CompanionOptions co;
+    // the paper's scripts send no token: the companion dialect stays on this machine
+    co.bind_address = "127.0.0.1";
+    co.port = static_cast<std::uint16_t>(a.companion_port);
+    auto c = sim::CompanionServer::create(**world, co);
+    if (!c) return fail(c.error().message, 1);
+    companion = std::move(*c);
+  }
   std::signal(SIGINT, on_signal);
   std::signal(SIGTERM, on_signal);
   (*world)->start();
   std::printf("scaratwin-sim: listening on %s:%u (speed %s, mode %s, camera %s)\n", a.bind.c_str(),
               (*server)->port(), a.speed.c_str(), a.mode.c_str(), wo.camera ? "on" : "off");
+  if (companion) {
+    std::printf("scaratwin-sim: companion dialect on 127.0.0.1:%u\n", companion->port());
+  }
   if (web_ui) {
     std::printf("scaratwin-sim: browser UI on http://%s:%u/\n", a.http_bind.c_str(),
                 web_ui->port());
@@ -267,6 +290,7 @@ int main(int argc, char** argv) {
     }
   }
   web_ui.reset();
+  companion.reset();
   (*server).reset();
   (*world)->stop();
   return 0;

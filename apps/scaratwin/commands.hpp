@@ -32,6 +32,7 @@ void add_statement_commands(CLI::App& app, CommonOptions& common, Runner& run);
 
 void add_model_command(CLI::App& app, CommonOptions& common, Runner& run);
 void add_sim_command(CLI::App& app, CommonOptions& common, Runner& run);
+void add_bench_command(CLI::App& app, CommonOptions& common, Runner& run);
 
 }  // namespace scaratwin::cli
 

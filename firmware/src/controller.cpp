@@ -5,6 +5,7 @@
 #include "board.h"
 #include "buttons.h"
 #include "clock.h"
+#include "companion.h"
 #include "fw_config.h"
 #include "homing.h"
 #include "jog.h"
@@ -56,6 +57,8 @@ bool g_halted = false;
 volatile bool g_rt_stop = false;    // set by '!' in the receive interrupt
 volatile bool g_rt_resume = false;  // set by '~'
 bool g_stop_pending = false;        // EV 6 once the step generator confirms
+bool g_baud_pending = false;        // CF 11 changed the rate: switch once its AK has left
+uint32_t g_baud_idle_us = 0;        // when the transmit ring was first seen empty
 
 struct Trajectory {
   bool active;
@@ -65,6 +68,20 @@ struct Trajectory {
   bool underrun_sent;
   PlanState plan;
 } g_traj;
+
+// the companion dialect (setting 10, companion.h)
+struct Companion {
+  bool in_line;  // the current line is a companion line
+  bool at_line_start;
+  bool overlong;
+  uint8_t len;
+  bool busy;                 // a homing at power-up or an m move: nothing is read until it ends
+  bool moving;               // an m move runs (at the speed limit)
+  int32_t target[kNumAxes];  // companion frame
+} g_comp;
+// A companion line is kept in g_line, the v1 decoder's buffer: a companion line starts only at a
+// line start, where the decoder holds nothing (the Uno's RAM is short).
+static_assert(kCompanionLineMax <= kLineMax, "a companion line must fit the line buffer");
 
 // ---- replies ----
 
@@ -250,6 +267,24 @@ void cmd_cf(const core::Packet& p) {
   settings_save(g_settings);
   settings_get(g_settings, p.i32(0), &value);
   reply_ak('C', 'F', true, value);
+  if (p.i32(0) == 11) {
+    g_baud_pending = true;  // the reply goes out at the old rate
+    g_baud_idle_us = 0;
+  }
+}
+
+// Switches the serial rate once the CF 11 reply has left: the ring empty, then 3 ms for the
+// UART's last two bytes (2.1 ms at 9600 baud).
+void handle_baud(uint32_t now) {
+  if (!g_baud_pending) return;
+  if (!serial_tx_empty()) {
+    g_baud_idle_us = 0;
+    return;
+  }
+  if (g_baud_idle_us == 0) g_baud_idle_us = now | 1u;
+  if ((uint32_t)(now - g_baud_idle_us) < 3000u) return;
+  serial_set_baud((uint32_t)g_settings.baud_hundreds * 100u);
+  g_baud_pending = false;
 }
 
 void cmd_jg(const core::Packet& p) {
@@ -266,6 +301,97 @@ void cmd_jg(const core::Packet& p) {
     jog_move((uint8_t)axis, delta);
   }
   reply_ak('J', 'G', false, 0);
+}
+
+// ---- the companion dialect ----
+
+void companion_error(CompanionError why, int32_t lo = 0, int32_t hi = 0, int8_t axis = -1,
+                     int32_t target = 0) {
+  char buf[kCompanionReserve];
+  const uint8_t n =
+      companion_error_line(buf, sizeof buf, g_line, g_comp.len, why, lo, hi, axis, target);
+  serial_write(buf, n);
+}
+
+// The targets of the companion frame now (after homing: where the robot is).
+void companion_targets_from_position() {
+  int32_t p[kNumAxes];
+  stepper_positions(p);
+  for (uint8_t i = 0; i < kNumAxes; ++i) g_comp.target[i] = p[i] - homing_switch_counts()[i];
+}
+
+// False (and an error line) if target t of `axis` is beyond its limits; J3 with J2 target j2.
+// For m the error line names the target.
+bool companion_within(uint8_t axis, int32_t t, int32_t j2, bool for_move) {
+  int32_t lo = 0, hi = 0;
+  companion_range(homing_switch_counts(), j2, g_settings.coupling_permille, axis, &lo, &hi);
+  if (t >= lo && t <= hi) return true;
+  companion_error(kCompErrLimit, lo, hi, for_move ? (int8_t)axis : (int8_t)-1, t);
+  return false;
+}
+
+void companion_move() {
+  if (!g_homed) return companion_error(kCompErrNotHomed);
+  if (g_halted || stepper_holding()) return companion_error(kCompErrHalted);
+  if (homing_active() || g_traj.active || jog_active()) return companion_error(kCompErrBusy);
+  // a J2 target changed after the x line may carry J3 beyond its limits: check all again
+  for (uint8_t i = 0; i < kNumAxes; ++i)
+    if (!companion_within(i, g_comp.target[i], g_comp.target[1], true)) return;
+  int32_t p[kNumAxes];
+  stepper_positions(p);
+  const int32_t* zero = homing_switch_counts();
+  for (uint8_t i = 0; i < kNumAxes; ++i) jog_move(i, zero[i] + g_comp.target[i] - p[i]);
+  g_comp.busy = true;
+  g_comp.moving = true;
+}
+
+void companion_line() {
+  if (g_comp.overlong) return companion_error(kCompErrTooLong);
+  uint8_t axis = 0;
+  int32_t steps = 0;
+  switch (companion_parse(g_line, g_comp.len, &axis, &steps)) {
+    case kCompanionTarget: {
+      // before homing the frame has no zero yet: targets wait for m, which needs homing
+      if (g_homed && !companion_within(axis, steps, axis == 1 ? steps : g_comp.target[1], false))
+        return;
+      g_comp.target[axis] = steps;
+      return;
+    }
+    case kCompanionMove:
+      return companion_move();
+    case kCompanionBadLine:
+      return companion_error(kCompErrBadNumber);
+    case kCompanionUnknown:
+      return companion_error(kCompErrUnknown);
+  }
+}
+
+// True if the next received byte starts a companion line.
+bool companion_line_next() {
+  const int16_t b = serial_peek();
+  return g_settings.companion != 0 && b >= 'a' && b <= 'z';
+}
+
+// Routes one received byte of a companion line; true if the byte was one.
+bool companion_byte(uint8_t b) {
+  const bool start = g_comp.at_line_start;
+  g_comp.at_line_start = b == '\n';
+  if (start) {
+    g_comp.in_line = g_settings.companion != 0 && b >= 'a' && b <= 'z';
+    g_comp.len = 0;
+    g_comp.overlong = false;
+  }
+  if (!g_comp.in_line) return false;
+  if (b == '\n') {
+    if (g_comp.len > 0 && g_line[g_comp.len - 1] == '\r') --g_comp.len;
+    companion_line();
+    g_comp.in_line = false;
+  } else if (g_comp.len < kCompanionLineMax) {
+    g_line[g_comp.len++] = (char)b;
+  } else {
+    g_comp.overlong = true;
+  }
+  return true;
 }
 
 void handle_packet(const core::Packet& p) {
@@ -321,21 +447,29 @@ void handle_packet(const core::Packet& p) {
 uint8_t g_lost_lines = 0;  // lines the full receive ring dropped, not yet answered
 
 void read_serial() {
-  while (serial_tx_free() >= kReplyReserve) {
+  if (g_baud_pending) return;  // replies wait for the new rate
+  // a companion error line is longer than a v1 reply
+  while (serial_tx_free() >= (g_comp.in_line ? kCompanionReserve : kReplyReserve)) {
     if (g_lost_lines != 0) {
       // a line that lost bytes gets ER=6=0= in the place of its reply, in order
       --g_lost_lines;
       reply_er(core::kErrQueueFull, true, 0);
       continue;
     }
+    // while a companion homing or move runs, the next companion line waits in the ring, as
+    // the companion sketch reads nothing then; v1 packets (and lost lines) are served meanwhile
+    if (g_comp.busy && g_comp.at_line_start && companion_line_next()) return;
     uint8_t lost = 0;
     int16_t b = serial_read(&lost);
     if (b == kSerialLost) {
-      g_decoder.reset();  // the start of the first lost line
+      g_decoder.reset();       // the start of the first lost line
+      g_comp.in_line = false;  // a companion line lost too; the next byte starts a line
+      g_comp.at_line_start = true;
       g_lost_lines = lost;
       continue;
     }
     if (b < 0) return;
+    if (companion_byte((uint8_t)b)) continue;
     core::Event ev;
     uint8_t type = g_decoder.push((uint8_t)b, &ev);
     if (type == core::kEventPacket) {
@@ -383,8 +517,10 @@ void handle_stepper_events() {
   }
   uint8_t failed_axis = 0;
   HomingResult h = homing_update(g_settings, ev, hit, &failed_axis);
+  if (h == kHomingDone || h == kHomingFailed) g_comp.busy = false;
   if (h == kHomingDone) {
     g_homed = true;
+    companion_targets_from_position();
     if (g_rehoming) {
       for (uint8_t i = 0; i < kNumAxes; ++i)
         send_ev((uint8_t)(kEvHomingOffsetZ + i), true, homing_offset(i));
@@ -409,6 +545,15 @@ void handle_stepper_events() {
     g_traj.underrun_sent = true;
     send_ev(kEvUnderrun, true, g_traj.next_seq);
   }
+}
+
+// An m move ends when its ramps are done (or a stop or an endstop cut it short).
+void handle_companion() {
+  if (g_comp.moving && !jog_active()) {
+    g_comp.moving = false;
+    g_comp.busy = false;
+  }
+  if (g_comp.busy && g_halted) g_comp.busy = g_comp.moving = false;
 }
 
 void handle_buttons(uint32_t now) {
@@ -443,16 +588,22 @@ void controller_realtime(uint8_t byte) {
 void controller_init() {
   settings_load(g_settings);
   clock_init();
-  serial_init(115200, controller_realtime);
+  serial_init((uint32_t)g_settings.baud_hundreds * 100u, controller_realtime);
   stepper_init();
   buttons_init();
   servo_init(g_settings.servo_min_us, g_settings.servo_max_us, (int16_t)g_settings.grip_open_cdeg,
              0);
   g_traj.active = false;
+  g_comp.at_line_start = true;
   stepper_set_run(true);
   sei();
   report_set_rate(g_settings.report_hz, clock_micros());
   send_hello();
+  if (g_settings.companion) {
+    // the companion sketch homes in setup(): its scripts expect a homed robot
+    homing_start(g_settings);
+    g_comp.busy = true;
+  }
 }
 
 void controller_poll() {
@@ -461,11 +612,16 @@ void controller_poll() {
   read_serial();
   stepper_poll();
   handle_stepper_events();
+  handle_companion();
   handle_buttons(now);
-  jog_feed(g_settings, homing_active() ? g_settings.homing_speed : g_settings.jog_speed);
+  jog_feed(g_settings, homing_active() ? g_settings.homing_speed
+                       : g_comp.moving ? g_settings.max_speed
+                                       : g_settings.jog_speed);
   if (g_traj.active) servo_set_target(kServoWrist, stepper_wrist_goal());
   servo_update(now, g_settings.servo_speed);
-  report_poll(now, flags(), queue_free());
+  // while the rate changes nothing new is sent: the line must fall quiet first
+  if (!g_baud_pending) report_poll(now, flags(), queue_free());
+  handle_baud(now);
 }
 
 bool controller_busy() {

@@ -67,12 +67,19 @@ constexpr uint16_t kDefaultPulloff = (uint16_t)desc::kPulloffSteps;  // steps ba
 constexpr int32_t kDefaultEndstop[kNumAxes] = {desc::kEndstopZ, desc::kEndstopJ2, desc::kEndstopJ3};
 constexpr int8_t kDefaultHomingDir[kNumAxes] = {desc::kHomingDirZ, desc::kHomingDirJ2,
                                                 desc::kHomingDirJ3};
+// Joint limits as counts (Z and J2 motor counts, J3 a joint count), for the companion dialect.
+constexpr int32_t kLimitMin[kNumAxes] = {desc::kLimitMinZ, desc::kLimitMinJ2, desc::kLimitMinJ3};
+constexpr int32_t kLimitMax[kNumAxes] = {desc::kLimitMaxZ, desc::kLimitMaxJ2, desc::kLimitMaxJ3};
+static_assert(desc::kLimitMinZ < desc::kLimitMaxZ && desc::kLimitMinJ2 < desc::kLimitMaxJ2 &&
+                  desc::kLimitMinJ3 < desc::kLimitMaxJ3,
+              "robot description: every joint needs a range of at least one step");
 // Home pose: motor counts the robot moves to after homing.
 constexpr int32_t kDefaultHome[kNumAxes] = {desc::kHomeZ, desc::kHomeJ2, desc::kHomeJ3};
 
 // firmware settings that the robot description does not hold
 constexpr uint16_t kDefaultReportHz = 100;
-constexpr uint16_t kDefaultHomingSpeed = 1500;  // steps/s while seeking an endstop
-constexpr uint16_t kDefaultJogSpeed = 1000;     // steps/s for buttons and JG
+constexpr uint16_t kDefaultBaudHundreds = 1152;  // 115200 baud
+constexpr uint16_t kDefaultHomingSpeed = 1500;   // steps/s while seeking an endstop
+constexpr uint16_t kDefaultJogSpeed = 1000;      // steps/s for buttons and JG
 
 }  // namespace fw

@@ -13,7 +13,8 @@ Phase g_phase = kIdle;
 uint8_t g_axis = 0;
 int32_t g_seek_from = 0;
 int32_t g_offset[kNumAxes] = {0, 0, 0};
-bool g_clear_stopping = false;  // kClear: the switch opened, the axis is coming to rest
+int32_t g_switch[kNumAxes] = {0, 0, 0};  // the counts set at the switches
+bool g_clear_stopping = false;           // kClear: the switch opened, the axis is coming to rest
 
 int32_t position(uint8_t axis) {
   int32_t p[kNumAxes];
@@ -58,6 +59,7 @@ void homing_abort() {
 bool homing_active() { return g_phase != kIdle; }
 
 int32_t homing_offset(uint8_t axis) { return axis < kNumAxes ? g_offset[axis] : 0; }
+const int32_t* homing_switch_counts() { return g_switch; }
 
 HomingResult homing_update(const Settings& s, uint8_t events, uint8_t endstops_hit,
                            uint8_t* failed_axis) {
@@ -93,6 +95,7 @@ HomingResult homing_update(const Settings& s, uint8_t events, uint8_t endstops_h
           value += floor_div(j2 * (int32_t)s.coupling_permille, 1000);
         }
         g_offset[g_axis] = position(g_axis) - value;
+        g_switch[g_axis] = value;
         stepper_set_position(g_axis, value);
         g_phase = kBackoff;
         jog_move(g_axis, -(int32_t)s.homing_dir[g_axis] * (int32_t)s.pulloff);

@@ -27,5 +27,8 @@ HomingResult homing_update(const Settings& s, uint8_t events, uint8_t endstops_h
 // count minus where the motor really was: the steps it lost since (0 if none), with the sign
 // of the counts it made that the motor did not.
 int32_t homing_offset(uint8_t axis);
+// The counts the axes were set to when their switches closed in the latest homing (J3 with the J2
+// motor's coupling share): the zero of the companion dialect's step frame.
+const int32_t* homing_switch_counts();
 
 }  // namespace fw

@@ -18,6 +18,8 @@ namespace fw {
 // reports wait for an almost empty buffer and drop while a trajectory streamed (one AK per
 // point in the buffer was enough to push a 55-byte report out of 128 - 64 bytes).
 constexpr uint8_t kReplyReserve = 32;
+// room a companion error line needs (companion.h)
+constexpr uint8_t kCompanionReserve = 64;
 
 void report_set_rate(uint16_t rate_hz, uint32_t now_us);
 uint16_t report_rate();

@@ -67,13 +67,19 @@ ISR(USART_UDRE_vect_NAME) {
   g_tx_tail = (uint8_t)((g_tx_tail + 1) & (kTxSize - 1));
 }
 
-void serial_init(uint32_t baud, RealtimeHandler on_realtime) {
-  g_on_realtime = on_realtime;
+void serial_set_baud(uint32_t baud) {
   // double speed (U2X) as the Arduino core does at 115200: 16 MHz / 8 / 17 = 117,647 baud
   uint16_t ubrr = (uint16_t)((F_CPU / 4 / baud - 1) / 2);
   UCSR0A = (1 << U2X0);
   UBRR0H = (uint8_t)(ubrr >> 8);
   UBRR0L = (uint8_t)ubrr;
+}
+
+bool serial_tx_empty() { return g_tx_head == g_tx_tail; }
+
+void serial_init(uint32_t baud, RealtimeHandler on_realtime) {
+  g_on_realtime = on_realtime;
+  serial_set_baud(baud);
   UCSR0C = (1 << UCSZ01) | (1 << UCSZ00);
   UCSR0B = (1 << RXEN0) | (1 << TXEN0) | (1 << RXCIE0);
 }
@@ -93,6 +99,12 @@ int16_t serial_read(uint8_t* lost_lines) {
   uint8_t b = g_rx[tail];
   g_rx_tail = (uint8_t)((tail + 1) & (kRxSize - 1));
   return b;
+}
+
+int16_t serial_peek() {
+  uint8_t tail = g_rx_tail;
+  if (g_loss_lines != 0 && g_loss_at == tail) return kSerialLost;
+  return tail == g_rx_head ? (int16_t)-1 : (int16_t)g_rx[tail];
 }
 
 bool serial_available() { return g_rx_tail != g_rx_head || g_loss_lines != 0; }

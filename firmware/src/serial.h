@@ -16,11 +16,17 @@ namespace fw {
 using RealtimeHandler = void (*)(uint8_t byte);
 
 void serial_init(uint32_t baud, RealtimeHandler on_realtime);
+// Changes the rate (the caller waits until nothing is being sent: see serial_tx_empty()).
+void serial_set_baud(uint32_t baud);
+// True when the transmit ring is empty (the UART may still shift out its last two bytes).
+bool serial_tx_empty();
 constexpr int16_t kSerialLost = -2;
 // Next received byte; -1 when none is waiting; kSerialLost when *lost_lines whole lines were
 // lost to a full ring at this place in the stream (the bytes of the first one read so far
 // belong to it).
 int16_t serial_read(uint8_t* lost_lines);
+// The next received byte without taking it, -1 or kSerialLost as serial_read() would answer.
+int16_t serial_peek();
 // True if a received byte (or a loss) is waiting.
 bool serial_available();
 // Free bytes in the transmit ring.

@@ -15,6 +15,7 @@ void settings_defaults(Settings& s) {
   s.jog_speed = kDefaultJogSpeed;
   s.servo_speed = kDefaultServoSpeed;
   s.coupling_permille = kDefaultCouplingPermille;
+  s.baud_hundreds = kDefaultBaudHundreds;
   s.servo_min_us = kDefaultServoMinUs;
   s.servo_max_us = kDefaultServoMaxUs;
   s.pulloff = kDefaultPulloff;
@@ -50,7 +51,7 @@ struct KeyInfo {
   int32_t max;
 };
 
-// CF keys 1..9; the speed limit keeps at most one step per axis per two ticks
+// CF keys 1..11; the speed limit keeps at most one step per axis per two ticks
 const KeyInfo kKeys[] = {
     {&Settings::max_speed, 1, (int32_t)(kTickHz / 2)},
     {&Settings::max_accel, 1, 60000},
@@ -61,10 +62,16 @@ const KeyInfo kKeys[] = {
     {&Settings::jog_speed, 1, 5000},
     {&Settings::servo_speed, 100, 60000},
     {&Settings::coupling_permille, 0, 5000},
+    {&Settings::companion, 0, 1},
+    {&Settings::baud_hundreds, 96, 10000},  // settings_baud_listed
 };
 constexpr int32_t kNumKeys = (int32_t)(sizeof(kKeys) / sizeof(kKeys[0]));
 
 }  // namespace
+
+bool settings_baud_listed(int32_t h) {
+  return h == 96 || h == 576 || h == 1152 || h == 2500 || h == 5000 || h == 10000;
+}
 
 SettingError settings_get(const Settings& s, int32_t key, int32_t* value) {
   if (key < 1 || key > kNumKeys) return kSettingUnknownKey;
@@ -76,6 +83,7 @@ SettingError settings_set(Settings& s, int32_t key, int32_t value) {
   if (key < 1 || key > kNumKeys) return kSettingUnknownKey;
   const KeyInfo& k = kKeys[key - 1];
   if (value < k.min || value > k.max) return kSettingBadValue;
+  if (k.field == &Settings::baud_hundreds && !settings_baud_listed(value)) return kSettingBadValue;
   s.*(k.field) = (uint16_t)value;
   settings_seal(s);
   return kSettingOk;

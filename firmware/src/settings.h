@@ -2,7 +2,7 @@
 // may tune at run time without reflashing, changed with CF and kept in EEPROM as one block
 // with a layout version and a Fletcher-16 checksum: a blank, corrupted or older EEPROM falls
 // back to the defaults of fw_config.h. The CF keys are numbered; keys 1-6 are those of
-// docs/protocol.md, 7-9 are firmware extras.
+// docs/protocol.md, 7-11 are firmware extras.
 #pragma once
 
 #include <stdint.h>
@@ -11,7 +11,7 @@
 
 namespace fw {
 
-constexpr uint8_t kSettingsVersion = 1;
+constexpr uint8_t kSettingsVersion = 2;  // 2: keys 10 and 11
 
 struct Settings {
   uint8_t version;
@@ -24,6 +24,8 @@ struct Settings {
   uint16_t jog_speed;          // steps/s for JG and the buttons  (CF key 7)
   uint16_t servo_speed;        // cdeg/s, wrist and gripper       (CF key 8)
   uint16_t coupling_permille;  // J3 motor steps per 1000 J2 steps (CF key 9)
+  uint16_t companion;          // 1: also read the companion dialect (CF key 10)
+  uint16_t baud_hundreds;      // serial baud / 100 (CF key 11): settings_baud_listed
   uint16_t servo_min_us;       // pulse at 0 deg
   uint16_t servo_max_us;       // pulse at 180 deg
   uint16_t pulloff;            // steps backed off a switch after it closed
@@ -32,6 +34,11 @@ struct Settings {
   int32_t home[kNumAxes];  // counts moved to after homing
   uint16_t checksum;       // Fletcher-16 of every byte before it
 };
+
+// The serial rates of CF key 11, in hundreds of baud: those the Uno's 16 MHz clock makes within
+// 1 % with U2X (9615, 57143, 117647 as the Arduino core has 115200, then exactly 250000, 500000
+// and 1000000).
+bool settings_baud_listed(int32_t hundreds);
 
 enum SettingError : uint8_t { kSettingOk = 0, kSettingUnknownKey, kSettingBadValue };
 

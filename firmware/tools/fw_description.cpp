@@ -10,6 +10,7 @@
 // usage: scaratwin-fw-description DESCRIPTION.toml OUTPUT.h
 // OUTPUT.h is rewritten only when its text changes, so an edit of the description that does not
 // change a constant rebuilds nothing.
+#include <algorithm>
 #include <cmath>
 #include <cstdint>
 #include <cstdio>
@@ -116,6 +117,30 @@ Result<std::string> header_text(const RobotModel& m, const std::string& source) 
       e.closes_at[0], scaratwin::rad_to_deg(e.closes_at[1]), scaratwin::rad_to_deg(e.closes_at[2]),
       endstop[0], endstop[1], endstop[2], e.homing_dir[0], e.homing_dir[1], e.homing_dir[2],
       e.pulloff_steps);
+  // joint limits as counts, rounded inwards (Z and J2 motor counts, J3 a joint count)
+  long lim_lo[3], lim_hi[3];
+  for (int i = 0; i < 3; ++i) {
+    const double k = scaratwin::steps_per_unit(m, i);
+    const double a = m.limits[i].min * k, b = m.limits[i].max * k;
+    lim_lo[i] = static_cast<long>(std::ceil(std::min(a, b) - 1e-9));
+    lim_hi[i] = static_cast<long>(std::floor(std::max(a, b) + 1e-9));
+  }
+  h += fmt::format(
+      "// [limits]: the joint limits as counts, rounded inwards (Z {}..{} m, J2 {}..{} deg as "
+      "motor\n"
+      "// counts; J3 {}..{} deg as a joint count: the firmware adds the J2 motor's coupling "
+      "share).\n"
+      "// The companion dialect refuses targets beyond them.\n"
+      "constexpr int32_t kLimitMinZ = {};\n"
+      "constexpr int32_t kLimitMaxZ = {};\n"
+      "constexpr int32_t kLimitMinJ2 = {};\n"
+      "constexpr int32_t kLimitMaxJ2 = {};\n"
+      "constexpr int32_t kLimitMinJ3 = {};\n"
+      "constexpr int32_t kLimitMaxJ3 = {};\n\n",
+      m.limits[0].min, m.limits[0].max, scaratwin::rad_to_deg(m.limits[1].min),
+      scaratwin::rad_to_deg(m.limits[1].max), scaratwin::rad_to_deg(m.limits[2].min),
+      scaratwin::rad_to_deg(m.limits[2].max), lim_lo[0], lim_hi[0], lim_lo[1], lim_hi[1], lim_lo[2],
+      lim_hi[2]);
   h += fmt::format(
       "// [home]: motor counts of the home pose (d1 = {} m, q2 = {} deg, q3 = {} deg; J3 with\n"
       "// the coupling share), where homing leaves the robot\n"

@@ -57,6 +57,27 @@ TEST(FirmwareDefaults, EndstopAndHomeCountsAreTheDescriptions) {
   EXPECT_EQ(fw::kDefaultHome[2], nearest(h[2] * k3 + c * h[1] * k2));
 }
 
+// The joint limits the companion dialect enforces: the description's, as whole counts inside.
+TEST(FirmwareDefaults, LimitCountsAreTheDescriptionsRoundedInwards) {
+  const scaratwin::RobotModel model = description();
+  const double k[3] = {model.motors.z.steps_per_unit, model.motors.j2.steps_per_unit,
+                       model.motors.j3.steps_per_unit};
+  for (int i = 0; i < 3; ++i) {
+    const auto& lim = model.limits[i];
+    EXPECT_EQ(fw::kLimitMin[i], static_cast<long>(std::ceil(lim.min * k[i]))) << "axis " << i;
+    EXPECT_EQ(fw::kLimitMax[i], static_cast<long>(std::floor(lim.max * k[i]))) << "axis " << i;
+  }
+  // the paper's robot, written out: d1 0.01..0.12 m, q2 -105..115 deg, q3 -75..205 deg
+  if (model.name == "paper-scara") {
+    EXPECT_EQ(fw::kLimitMin[0], 2056);
+    EXPECT_EQ(fw::kLimitMax[0], 24667);
+    EXPECT_EQ(fw::kLimitMin[1], -1731);
+    EXPECT_EQ(fw::kLimitMax[1], 1896);
+    EXPECT_EQ(fw::kLimitMin[2], -1904);
+    EXPECT_EQ(fw::kLimitMax[2], 5205);
+  }
+}
+
 // Whatever the description, homing seeks each switch beyond the travel: the counts lie past the
 // limits, on the side of the homing direction.
 TEST(FirmwareDefaults, EndstopsSitBeyondTheJointLimitsWhereHomingSeeksThem) {

@@ -233,7 +233,19 @@ TEST(Settings, KeysHaveRangesAndUnknownKeysAreRefused) {
   EXPECT_EQ(settings_set(s, 1, static_cast<int32_t>(kTickHz)), kSettingBadValue)
       << "the step generator emits at most one step per two ticks";
   EXPECT_EQ(settings_get(s, 0, &v), kSettingUnknownKey);
-  EXPECT_EQ(settings_set(s, 10, 1), kSettingUnknownKey);
+  EXPECT_EQ(s.companion, 0) << "the companion dialect is off by default";
+  EXPECT_EQ(settings_set(s, 10, 1), kSettingOk);
+  EXPECT_EQ(s.companion, 1);
+  EXPECT_EQ(settings_set(s, 10, 2), kSettingBadValue);
+  // key 11, the serial rate: only the rates the 16 MHz clock makes within 1 %
+  EXPECT_EQ(s.baud_hundreds, 1152) << "115200 baud by default";
+  for (int32_t h : {96, 576, 1152, 2500, 5000, 10000})
+    EXPECT_EQ(settings_set(s, 11, h), kSettingOk);
+  for (int32_t h : {0, 95, 192, 384, 2304, 4608, 10001, 20000}) {
+    EXPECT_EQ(settings_set(s, 11, h), kSettingBadValue) << h;
+  }
+  EXPECT_EQ(s.baud_hundreds, 10000) << "a refused value changes nothing";
+  EXPECT_EQ(settings_set(s, 12, 1), kSettingUnknownKey);
 }
 
 TEST(Servo, PulseAndAngleConvertBothWays) {

@@ -26,6 +26,7 @@
 #include <string_view>
 
 #include "scaratwin/core/result.hpp"
+#include "scaratwin/sim/spawn.hpp"
 #include "scaratwin/sim/world.hpp"
 #include "scaratwin/web/link_monitor.hpp"
 
@@ -68,9 +69,8 @@ Result<Command> parse_command(std::string_view text);
 // is run by the server off its network thread: see shoot_message.)
 std::string execute_command(sim::World& world, const Command& command, std::mt19937_64& rng);
 
-// Places a cube at a free random spot on the table that the robot can reach at grasp height
-// and that is not on a tray. Errors: the colour's pool is used up, or no free spot was found.
-Result<sim::CubeState> spawn_at_random(sim::Simulation& sim, CubeColor color, std::mt19937_64& rng);
+// The page's spawn button without a position: a free random spot (scaratwin/sim/spawn.hpp).
+using sim::spawn_at_random;
 
 // The "image" message for a PNG (or a failed "reply" if the shot failed).
 std::string shoot_message(sim::World& world, const Command& command);
