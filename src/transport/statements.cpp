@@ -142,11 +142,14 @@ Result<TrajectoryLoad> Twin::load_trajectory(const JointTrajectory& trajectory) 
   }
   const auto& backlash = model_.calibration.backlash;
   const bool compensate = backlash != std::array<double, 3>{};
+  // a calibrated backlash: the motor leads the joint by `lead` (half the dead band, signed)
+  auto with_lead = [](JointVector q, const std::array<double, 3>& lead) {
+    for (int j = 0; j < kNumSteppers; ++j) q[j] += lead[j];
+    return q;
+  };
   auto motor_point = [&](const JointVector& q_joint, const std::array<double, 3>& lead,
                          double dt_s) {
-    // a calibrated backlash: the motor leads the joint by `lead` (half the dead band, signed)
-    JointVector q = q_joint;
-    for (int j = 0; j < kNumSteppers; ++j) q[j] += lead[j];
+    const JointVector q = with_lead(q_joint, lead);
     TrajectoryPoint p;
     p.seq = static_cast<std::int32_t>(points.size());
     p.dt_s = dt_s;
@@ -186,16 +189,8 @@ Result<TrajectoryLoad> Twin::load_trajectory(const JointTrajectory& trajectory) 
   };
   auto take_up = [&](const JointVector& q_hold, const MotionDirections& to) {
     const auto from_lead = lead_of(applied), to_lead = lead_of(to);
-    const auto a = joints_to_steps(model_, [&] {
-      JointVector q = q_hold;
-      for (int j = 0; j < kNumSteppers; ++j) q[j] += from_lead[j];
-      return q;
-    }());
-    const auto b = joints_to_steps(model_, [&] {
-      JointVector q = q_hold;
-      for (int j = 0; j < kNumSteppers; ++j) q[j] += to_lead[j];
-      return q;
-    }());
+    const auto a = joints_to_steps(model_, with_lead(q_hold, from_lead));
+    const auto b = joints_to_steps(model_, with_lead(q_hold, to_lead));
     const std::array<double, 3> accel{model_.motors.z.max_accel_steps_s2,
                                       model_.motors.j2.max_accel_steps_s2,
                                       model_.motors.j3.max_accel_steps_s2};
@@ -210,7 +205,8 @@ Result<TrajectoryLoad> Twin::load_trajectory(const JointTrajectory& trajectory) 
       const double u = static_cast<double>(i) / n;
       const double s = u * u * u * (10.0 + u * (-15.0 + 6.0 * u));
       std::array<double, 3> lead{};
-      for (int j = 0; j < kNumSteppers; ++j) lead[j] = from_lead[j] + s * (to_lead[j] - from_lead[j]);
+      for (int j = 0; j < kNumSteppers; ++j)
+        lead[j] = from_lead[j] + s * (to_lead[j] - from_lead[j]);
       motor_point(q_hold, lead, dt);
     }
     applied = to;
@@ -260,9 +256,8 @@ Result<TrajectoryLoad> Twin::load_trajectory(const JointTrajectory& trajectory) 
         deg_to_rad(close ? model_.motors.gripper_closed_deg : model_.motors.gripper_open_deg);
   }
   if (points.size() > 65535) {
-    return Error{core::kErrBadValue,
-                 std::string(kName) + ": " + std::to_string(points.size()) +
-                     " points with the backlash take-ups, need at most 65535"};
+    return Error{core::kErrBadValue, std::string(kName) + ": " + std::to_string(points.size()) +
+                                         " points with the backlash take-ups, need at most 65535"};
   }
   const MotionDirections dir = applied;
 
