@@ -201,23 +201,24 @@ Result<std::vector<double>> measure_test_poses(Hub& hub, EmulatorSide& side,
 }
 
 std::vector<CalibrationParameter> compare_parameters(const RobotModel& description,
-                                                    const calib::Fit& fit,
-                                                    const std::vector<MeasuredJoints>& samples) {
+                                                     const calib::Fit& fit,
+                                                     const std::vector<MeasuredJoints>& samples) {
   const auto identified = identified_parameters(description, fit);
   const auto truth = true_parameters(description, samples);
   const auto drawn = drawn_parameters(description);
   std::vector<CalibrationParameter> out;
   for (int i = 0; i < calib::kParamCount; ++i) {
     const auto& info = calib::param_info(i);
-    out.push_back({std::string(info.key), identified[i] / info.to_si,
-                   fit.std_error[i] / info.to_si, truth[i] / info.to_si, drawn[i] / info.to_si});
+    out.push_back({std::string(info.key), identified[i] / info.to_si, fit.std_error[i] / info.to_si,
+                   truth[i] / info.to_si, drawn[i] / info.to_si});
   }
   return out;
 }
 
 void print_comparison(const std::vector<CalibrationParameter>& params) {
-  fmt::print("    against the robot as built (the emulator's truth; the camera as the change from "
-             "the description's):\n");
+  fmt::print(
+      "    against the robot as built (the emulator's truth; the camera as the change from "
+      "the description's):\n");
   fmt::print("    {:<22} {:>11} {:>9} {:>11} {:>7} {:>11}\n", "parameter", "identified",
              "std error", "true", "off/se", "as drawn");
   for (const CalibrationParameter& p : params) {
@@ -373,8 +374,7 @@ std::array<double, calib::kParamCount> true_parameters(const RobotModel& descrip
   std::array<double, calib::kParamCount> t = drawn_parameters(description);
   auto set = [&t](Param p, double v) { t[static_cast<int>(p)] = v; };
   for (Param p : {Param::kZOffset, Param::kZScale, Param::kJ2Zero, Param::kJ3Zero,
-                  Param::kWristOffset, Param::kWristGain, Param::kJ2Backlash,
-                  Param::kJ3Backlash}) {
+                  Param::kWristOffset, Param::kWristGain, Param::kJ2Backlash, Param::kJ3Backlash}) {
     set(p, std::nan(""));
   }
   // Z: true - counts = offset + scale (counts - switch)

@@ -100,8 +100,8 @@ std::array<double, calib::kParamCount> identified_parameters(const RobotModel& d
 
 // Each parameter identified beside the truth and the draw (key units), and the table printed.
 std::vector<CalibrationParameter> compare_parameters(const RobotModel& description,
-                                                    const calib::Fit& fit,
-                                                    const std::vector<MeasuredJoints>& samples);
+                                                     const calib::Fit& fit,
+                                                     const std::vector<MeasuredJoints>& samples);
 void print_comparison(const std::vector<CalibrationParameter>& params);
 
 // The demo's calibration step with the emulated robot: the test poses as the description is,

@@ -32,7 +32,8 @@ int run_calibrate(const CommonOptions& common, const CalibrateArgs& a) {
   auto model = load_model(common);
   if (!model) return kExitUsage;
   // the emulated robot's build (the twin never reads it; the comparison at the end does)
-  if (a.as_built_seed >= 0) model->physical.as_built.seed = static_cast<std::uint64_t>(a.as_built_seed);
+  if (a.as_built_seed >= 0)
+    model->physical.as_built.seed = static_cast<std::uint64_t>(a.as_built_seed);
   if (is_calibrated(*model)) {
     std::fprintf(stderr,
                  "scaratwin calibrate: --config names a calibrated description; calibrate with "

@@ -432,8 +432,8 @@ std::string overlay_text(const RobotModel& base, const Fit& f, const std::string
   t += "# identified: [value, standard error] in the key's unit, as deviations from the base.\n";
   t += fmt::format("base = \"{}\"\n\n[calibration]\n", base_ref);
   t += fmt::format("date = \"{}\"\nrobot = \"{}\"\n", date_utc, base.name);
-  t += fmt::format("pattern_points = {}\nmarker_views = {}\nmarker_points = {}\n",
-                   f.pattern_points, f.marker_views, f.marker_points);
+  t += fmt::format("pattern_points = {}\nmarker_views = {}\nmarker_points = {}\n", f.pattern_points,
+                   f.marker_views, f.marker_points);
   t += fmt::format("outliers = {}\ntouch_offs = {}\n", f.outliers, f.touch_offs);
   t += fmt::format("pixel_rms = {:.4f}\ntouch_rms_mm = {:.4f}\nfit_s = {:.3f}\n\n", f.pixel_rms,
                    f.touch_rms_m * 1e3, f.fit_seconds);

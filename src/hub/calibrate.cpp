@@ -283,8 +283,8 @@ Result<CalibrationRun> calibrate(Hub& hub, NetCamera& camera, CalibrationOperato
     m.markers.push_back(v);
     if (o.on_measurement) o.on_measurement(&m.markers.back(), nullptr);
     if ((i + 1) % 6 == 0) {
-      say(o, fmt::format("  {} of {} poses ({:.0f} s of robot time)", i + 1, poses.size(),
-                         robot_s()));
+      say(o,
+          fmt::format("  {} of {} poses ({:.0f} s of robot time)", i + 1, poses.size(), robot_s()));
     }
   }
   if (unseen > static_cast<int>(poses.size()) / 4) {

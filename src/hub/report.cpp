@@ -1,8 +1,8 @@
 #include "scaratwin/hub/report.hpp"
 
+#include <cmath>
 #include <ctime>
 #include <fstream>
-#include <cmath>
 #include <map>
 
 #include <fmt/format.h>
@@ -103,11 +103,11 @@ std::string calibration_table(const std::map<std::string, std::vector<double>>& 
     };
     const double se = value_of(name + ".se"), truth = value_of(name + ".true");
     const double off = std::abs(v.back() - truth) / se;
-    rows += fmt::format(
-        "<tr><td>{}</td><td>{:.4f}</td><td>{:.4f}</td><td>{}</td><td>{}</td></tr>\n",
-        name.substr(prefix.size()), v.back(), se,
-        std::isnan(truth) ? "not measured" : fmt::format("{:.4f}", truth),
-        std::isnan(off) ? "" : fmt::format("{:.1f}", off));
+    rows +=
+        fmt::format("<tr><td>{}</td><td>{:.4f}</td><td>{:.4f}</td><td>{}</td><td>{}</td></tr>\n",
+                    name.substr(prefix.size()), v.back(), se,
+                    std::isnan(truth) ? "not measured" : fmt::format("{:.4f}", truth),
+                    std::isnan(off) ? "" : fmt::format("{:.1f}", off));
   }
   if (rows.empty()) return "";
   return "<h2>Calibration: the robot as identified and as built</h2>\n<table><tr><th>parameter "

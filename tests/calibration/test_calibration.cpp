@@ -26,8 +26,8 @@ struct Build {
   double a2 = 0.6e-3, a3 = -0.4e-3, z_zero = 0.5e-3, lead = 0.003, j2_zero = 0.7 * kDeg,
          j3_zero = -0.5 * kDeg, wrist_off = 2.0 * kDeg, wrist_gain = -0.02, jaw = 0.3e-3,
          b2 = 0.25 * kDeg, b3 = 0.2 * kDeg;
-  std::array<double, kWebcamParams> cam{2e-3, -1.5e-3, 2.5e-3, 0.5 * kDeg, -0.3 * kDeg,
-                                        0.4 * kDeg, 0.0, -0.04};
+  std::array<double, kWebcamParams> cam{2e-3,        -1.5e-3,    2.5e-3, 0.5 * kDeg,
+                                        -0.3 * kDeg, 0.4 * kDeg, 0.0,    -0.04};
 };
 
 struct Synth {
@@ -114,10 +114,9 @@ TEST(Calibration, RecoversAKnownBuildWithinItsStandardErrors) {
   auto r = fit(s.base, prior, m);
   ASSERT_TRUE(r) << r.error().message;
   const Fit& f = *r;
-  const std::array<double, kRobotParams> want{s.b.a2,        s.b.a3,      s.b.z_zero,
-                                              s.b.lead,      s.b.j2_zero, s.b.j3_zero,
-                                              s.b.wrist_off, s.b.wrist_gain, s.b.jaw,
-                                              s.b.b2,        s.b.b3};
+  const std::array<double, kRobotParams> want{
+      s.b.a2,        s.b.a3,         s.b.z_zero, s.b.lead, s.b.j2_zero, s.b.j3_zero,
+      s.b.wrist_off, s.b.wrist_gain, s.b.jaw,    s.b.b2,   s.b.b3};
   for (int i = 0; i < kRobotParams; ++i) {
     EXPECT_LT(std::abs(f.value[i] - want[i]), 3.0 * f.std_error[i] + 1e-12)
         << param_info(i).key << " identified " << f.value[i] << " true " << want[i] << " se "
@@ -134,7 +133,8 @@ TEST(Calibration, RecoversAKnownBuildWithinItsStandardErrors) {
   for (int i = 0; i < kParamCount; ++i)
     std::printf("%-22s %12.6g %12.6g\n", std::string(param_info(i).key).c_str(),
                 f.value[i] / param_info(i).to_si, f.std_error[i] / param_info(i).to_si);
-  std::printf("rms %.3f px, touch %.4f mm, iter %d\n", f.pixel_rms, f.touch_rms_m * 1e3, f.iterations);
+  std::printf("rms %.3f px, touch %.4f mm, iter %d\n", f.pixel_rms, f.touch_rms_m * 1e3,
+              f.iterations);
   EXPECT_LT(f.pixel_rms, 0.3);
   EXPECT_EQ(f.marker_views, 40);
   EXPECT_EQ(f.touch_offs, 8);
@@ -191,7 +191,6 @@ TEST(Calibration, NamesTheMissingMeasurement) {
   r = fit(s.base, guess, flat);
   ASSERT_FALSE(r);
   EXPECT_NE(r.error().message.find("Z spans 0.0 mm"), std::string::npos) << r.error().message;
-
 }
 
 TEST(Calibration, RefusesMeasurementsThatDoNotFitOneRobot) {
@@ -235,13 +234,11 @@ TEST(Calibration, SetsAsideAFewMistakenMarkers) {
   EXPECT_EQ(r->marker_points, 77);
   EXPECT_EQ(r->marker_views, 40);
   EXPECT_LT(r->pixel_rms, 0.3);
-  const std::array<double, kRobotParams> want{s.b.a2,        s.b.a3,      s.b.z_zero,
-                                              s.b.lead,      s.b.j2_zero, s.b.j3_zero,
-                                              s.b.wrist_off, s.b.wrist_gain, s.b.jaw,
-                                              s.b.b2,        s.b.b3};
+  const std::array<double, kRobotParams> want{
+      s.b.a2,        s.b.a3,         s.b.z_zero, s.b.lead, s.b.j2_zero, s.b.j3_zero,
+      s.b.wrist_off, s.b.wrist_gain, s.b.jaw,    s.b.b2,   s.b.b3};
   for (int i = 0; i < kRobotParams; ++i) {
-    EXPECT_LT(std::abs(r->value[i] - want[i]), 3.0 * r->std_error[i] + 1e-12)
-        << param_info(i).key;
+    EXPECT_LT(std::abs(r->value[i] - want[i]), 3.0 * r->std_error[i] + 1e-12) << param_info(i).key;
   }
 }
 

@@ -240,8 +240,8 @@ void sorts_and_records(bool calibrate) {
     return;
   }
   EXPECT_FALSE(r.contains("calibration"));
-  // Uncalibrated, the control errors against an oracle outside the plant: the description's own default
-  // tolerance draw (seed 1) applied to the kinematics. The firmware holds the IK joints of
+  // Uncalibrated, the control errors against an oracle outside the plant: the description's own
+  // default tolerance draw (seed 1) applied to the kinematics. The firmware holds the IK joints of
   // each target (either elbow); after homing each joint is off by its switch's mounting error,
   // the Z scale by the lead error, and the arm has the drawn link lengths and jaw offset.
   auto model = load_robot_config(SCARATWIN_CONFIG_FILE);

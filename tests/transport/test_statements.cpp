@@ -205,10 +205,10 @@ TEST(Statements, LoadTrajectoryTakesUpACalibratedDeadBandWhereAJointTurns) {
     m[1] -= 0.5 * (hd[1] - d2) * deg_to_rad(0.3);
     m[2] -= 0.5 * (hd[2] - d3) * deg_to_rad(0.25);
     // then the description's conversion, the J3 motor coupled to J2
-    return std::array<double, 2>{m[1] * rig.model.motors.j2.steps_per_unit,
-                                 m[2] * rig.model.motors.j3.steps_per_unit +
-                                     rig.model.motors.j3_per_j2_coupling * m[1] *
-                                         rig.model.motors.j2.steps_per_unit};
+    return std::array<double, 2>{
+        m[1] * rig.model.motors.j2.steps_per_unit,
+        m[2] * rig.model.motors.j3.steps_per_unit +
+            rig.model.motors.j3_per_j2_coupling * m[1] * rig.model.motors.j2.steps_per_unit};
   };
   // starts where the motors are (leading upwards), ends leading upwards again
   const auto first = motor(q0, 1, 1);
@@ -233,7 +233,8 @@ TEST(Statements, LoadTrajectoryTakesUpACalibratedDeadBandWhereAJointTurns) {
       const double v2 = (pts[k].steps[a] - pts[k - 1].steps[a]) / pts[k].dt_s;
       const double acc = std::abs(v2 - v1) / (0.5 * (pts[k - 1].dt_s + pts[k].dt_s));
       // one step of rounding in 20 ms shows as up to 2 / 0.02^2 steps/s^2 of apparent jitter
-      EXPECT_LE(acc, limit[a - 1] + 2.0 / (pts[k].dt_s * pts[k].dt_s)) << "point " << k << " axis " << a;
+      EXPECT_LE(acc, limit[a - 1] + 2.0 / (pts[k].dt_s * pts[k].dt_s))
+          << "point " << k << " axis " << a;
     }
   }
 }

@@ -64,8 +64,8 @@ bool is_calibrated(const RobotModel& model);
 double seeded_uniform(std::uint64_t& state, double lo, double hi);
 
 // Unidirectional positioning: a quick move to `target` less `dir` x 1.5 deg on J2 and J3 (and
-// 0.25 mm on Z), then a slow last 1.5 deg towards it (Z and J2, then J3 alone). A belt drive comes to
-// rest on one flank of its dead band only when the last motion was slow: after a fast move the
+// 0.25 mm on Z), then a slow last 1.5 deg towards it (Z and J2, then J3 alone). A belt drive comes
+// to rest on one flank of its dead band only when the last motion was slow: after a fast move the
 // arm's own momentum and the other link's reaction can leave it on either. `dir` (+1 / -1 per
 // stepper joint) is then the side each joint rests on.
 Status approach(Hub& hub, const JointVector& target, const MotionDirections& dir);
@@ -81,8 +81,8 @@ std::vector<std::pair<std::string, std::array<double, 3>>> touch_marks(const Rob
 // other, each visited nearest first (by the time a quintic move to it takes), from home.
 std::vector<JointVector> visiting_order(const RobotModel& model, std::vector<JointVector> poses);
 
-std::vector<JointVector> marker_poses(const RobotModel& model, const WebcamModel& camera,
-                                      int count, std::uint64_t seed);
+std::vector<JointVector> marker_poses(const RobotModel& model, const WebcamModel& camera, int count,
+                                      std::uint64_t seed);
 
 // Runs the routine on the connected robot (homes it first). The hub's description must be a
 // base description, not a calibrated overlay.

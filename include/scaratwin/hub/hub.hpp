@@ -258,7 +258,7 @@ class Hub {
   // the side of its dead band each joint rests on (a calibrated backlash), from the reports
   MotionDirections report_dir_{};
   JointVector report_joint_{};  // the last report's joints (the belts' play applied)
-  bool play_reset_ = false;      // homing: start the play again from the homed sides
+  bool play_reset_ = false;     // homing: start the play again from the homed sides
 };
 
 }  // namespace scaratwin
