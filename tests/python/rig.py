@@ -2,6 +2,7 @@
 camera) and scaratwin-robot (the firmware in simavr, the exact robot: --plant ideal) behind its
 pty, started from the build tree; and the emulator's truth channel, the measuring instrument
 (the motors' true step positions from the STEP/DIR pins)."""
+import os
 import re
 import signal
 import socket
@@ -66,6 +67,11 @@ class Truth:
         return np.array_equal(a, self.steps())
 
 
+# the emulated robot at twice real time: the tests judge by emulated time and events, and the
+# examples run as they do at 1x, in half the wall time (CI's budget)
+ROBOT_SPEED = os.environ.get("SCARATWIN_TEST_ROBOT_SPEED", "2")
+
+
 @pytest.fixture(scope="module")
 def rig(tmp_path_factory):
     d = tmp_path_factory.mktemp("rig")
@@ -73,7 +79,7 @@ def rig(tmp_path_factory):
     bin_dir = st.bin_dir()
     robot_log, sim_log = d / "robot.log", d / "sim.log"
     robot = subprocess.Popen([str(bin_dir / "scaratwin-robot"), "--pty-link", str(pty),
-                              "--plant", "ideal"], stdout=open(robot_log, "w"),
+                              "--plant", "ideal", "--speed", ROBOT_SPEED], stdout=open(robot_log, "w"),
                              stderr=subprocess.STDOUT)
     sim = subprocess.Popen([str(bin_dir / "scaratwin-sim"), "--port", "0", "--http-port", "0"],
                            stdout=open(sim_log, "w"), stderr=subprocess.STDOUT)
