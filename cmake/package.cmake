@@ -108,6 +108,8 @@ set(CPACK_DEBIAN_PACKAGE_SECTION science)
 set(CPACK_DEBIAN_PACKAGE_PRIORITY optional)
 set(CPACK_DEBIAN_PACKAGE_SHLIBDEPS ON)
 set(CPACK_DEBIAN_COMPRESSION_TYPE xz)
+# xz on every core (CPack 3.20+): the package test builds the packages in CI
+set(CPACK_THREADS 0)
 set(deb_version ${PROJECT_VERSION}-${SCARATWIN_DEB_RELEASE})
 
 set(CPACK_DEBIAN_SCARATWIN_PACKAGE_NAME scaratwin)
