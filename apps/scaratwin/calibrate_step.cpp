@@ -2,6 +2,7 @@
 
 #include <unistd.h>
 
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
@@ -177,7 +178,16 @@ std::vector<ToolPose> test_poses(const RobotModel& model, int count, std::uint64
     if (!inside) continue;
     out.push_back(p);
   }
-  return out;
+  // visited nearest first, one elbow then the other (as the calibration's own poses): the same
+  // poses in an order that halves the travel between them
+  std::vector<JointVector> joints;
+  for (const ToolPose& p : out) joints.push_back(*inverse(model, p, model.home));
+  std::vector<ToolPose> ordered;
+  for (const JointVector& q : visiting_order(model, joints)) {
+    const auto at = std::find(joints.begin(), joints.end(), q);
+    ordered.push_back(out[static_cast<std::size_t>(at - joints.begin())]);
+  }
+  return ordered;
 }
 
 Result<std::vector<double>> measure_test_poses(Hub& hub, EmulatorSide& side,
