@@ -5,7 +5,7 @@
 set -euo pipefail
 
 packages=(
-  build-essential cmake ninja-build pkg-config git help2man
+  build-essential cmake ninja-build pkg-config git help2man gcovr
   libeigen3-dev libboost-dev libsqlite3-dev libcli11-dev libspdlog-dev libfmt-dev
   nlohmann-json3-dev libtomlplusplus-dev libgtest-dev libgmock-dev libbenchmark-dev
   liborocos-kdl-dev
