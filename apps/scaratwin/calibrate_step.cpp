@@ -18,6 +18,7 @@
 #include "scaratwin/core/units.hpp"
 #include "scaratwin/hub/report.hpp"
 #include "scaratwin/kinematics/kinematics.hpp"
+#include "scaratwin/kinematics/motor.hpp"
 #include "scaratwin/plant/plant.hpp"
 #include "scaratwin/plant/plant_camera.hpp"
 #include "scaratwin/trajectory/trajectory.hpp"
@@ -190,11 +191,12 @@ std::vector<ToolPose> test_poses(const RobotModel& model, int count, std::uint64
   return ordered;
 }
 
-Result<std::vector<double>> measure_test_poses(Hub& hub, EmulatorSide& side,
-                                               const std::vector<ToolPose>& poses) {
-  std::vector<double> out;
+Result<TestPoseErrors> measure_test_poses(Hub& hub, EmulatorSide& side,
+                                          const std::vector<ToolPose>& poses,
+                                          const RobotModel& before) {
+  TestPoseErrors out;
   for (const ToolPose& p : poses) {
-    // the elbow test_poses() chose (IK seeded at home), before and after calibration alike
+    // the elbow test_poses() chose (IK seeded at home)
     auto q = inverse(hub.model(), p, hub.model().home);
     if (!q) return q.error();
     if (Status s = approach(hub, *q, {1, 1, 1}); !s) return s.error();
@@ -203,9 +205,16 @@ Result<std::vector<double>> measure_test_poses(Hub& hub, EmulatorSide& side,
     if (!ps) return ps.error();
     auto truth = side.query();
     if (!truth) return truth.error();
-    const ToolPose v = forward(hub.model(), ps->q);
-    out.push_back(
-        distance({v.x_m, v.y_m, v.z_m}, {truth->tool[0], truth->tool[1], truth->tool[2]}));
+    const std::array<double, 3> true_tool{truth->tool[0], truth->tool[1], truth->tool[2]};
+    const auto& steps = ps->raw.steps;
+    const JointVector q_before =
+        motors_to_joints(before,
+                         {static_cast<double>(steps[0]), static_cast<double>(steps[1]),
+                          static_cast<double>(steps[2])},
+                         rad_to_deg(ps->raw.wrist_rad));
+    const ToolPose vb = forward(before, q_before), va = forward(hub.model(), ps->q);
+    out.before.push_back(distance({vb.x_m, vb.y_m, vb.z_m}, true_tool));
+    out.after.push_back(distance({va.x_m, va.y_m, va.z_m}, true_tool));
   }
   return out;
 }
@@ -244,9 +253,6 @@ Result<CalibrationFigures> calibration_phase(Hub& hub, EmulatorSide& side, NetCa
                                              std::uint64_t test_seed) {
   const RobotModel base = hub.model();
   const std::vector<ToolPose> poses = test_poses(base, 12, test_seed);
-  fmt::print("    before: the robot at {} test poses, the description as it is\n", poses.size());
-  auto before = measure_test_poses(hub, side, poses);
-  if (!before) return before.error();
   EmulatedOperator op(side);
   CalibrationOptions co;
   co.progress = [](const std::string& line) {
@@ -258,12 +264,15 @@ Result<CalibrationFigures> calibration_phase(Hub& hub, EmulatorSide& side, NetCa
   auto cal = calibrate_and_write(hub, camera, op, base_config, overlay, co);
   if (!cal) return cal.error();
   hub.set_model(cal->calibrated);
-  fmt::print("    after: the same test poses, the calibrated description\n");
-  auto after = measure_test_poses(hub, side, poses);
-  if (!after) return after.error();
+  fmt::print(
+      "    {} test poses: the virtual tool as the description put it before and as the "
+      "calibrated one puts it, against the true tool\n",
+      poses.size());
+  auto errors = measure_test_poses(hub, side, poses, base);
+  if (!errors) return errors.error();
   CalibrationFigures cf;
-  cf.before = error_stats(*before);
-  cf.after = error_stats(*after);
+  cf.before = error_stats(errors->before);
+  cf.after = error_stats(errors->after);
   cf.test_poses = static_cast<int>(poses.size());
   cf.fit_poses = cal->fit.marker_views + cal->fit.touch_offs;
   cf.robot_s = cal->robot_s;

@@ -50,11 +50,20 @@ std::filesystem::path default_overlay_path(const std::filesystem::path& base_con
 // Test poses (not used by the fit): seeded tool poses over the workspace.
 std::vector<ToolPose> test_poses(const RobotModel& model, int count, std::uint64_t seed);
 
+// The virtual -> true tool distances (m) at the test poses, as two descriptions see the same
+// physical poses.
+struct TestPoseErrors {
+  std::vector<double> before;  // `before`'s tool at the reported step counts
+  std::vector<double> after;   // the hub's (its model, dead bands included) at the same report
+};
+
 // Moves the robot to each test pose as `hub.model()` computes it and measures, with the
-// truth, how far the virtual tool (the model's tool at the reported joints) is from the true
-// tool. Returns the distances (m).
-Result<std::vector<double>> measure_test_poses(Hub& hub, EmulatorSide& side,
-                                               const std::vector<ToolPose>& poses);
+// truth, how far the virtual tool is from the true tool: as the hub's model puts it (after)
+// and as `before` (the description as it was) puts it from the same reported counts, which
+// is the joints an uncalibrated twin shows there. One pass measures both.
+Result<TestPoseErrors> measure_test_poses(Hub& hub, EmulatorSide& side,
+                                          const std::vector<ToolPose>& poses,
+                                          const RobotModel& before);
 
 // One measurement of the routine beside the emulator's truth: the firmware's joints, the
 // side each joint came from, and the true joints there.
