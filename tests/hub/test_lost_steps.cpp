@@ -1,11 +1,13 @@
 // Lost steps from physics, seen while they happen: the emulated robot as built with a driver
-// whose current is set too low (0.25 A instead of 1.2 A, a Vref turned down) and 1 kg in its
-// gripper. A J2 move at the description's acceleration loses nothing; the same move at three
-// times the acceleration loses steps on J2 (the pull-out torque of the weak driver falls short
-// of what the load's acceleration asks for). The twin's camera tracker, which follows the
-// tool's marker through the robot's webcam, raises the desync alarm within 200 ms of the tool
-// leaving the virtual robot by more than 2 mm; homing again counts the steps the truth says
-// were lost, to within one step. The truth (the emulator's side channel) only measures.
+// whose current is set too low (0.35 A instead of 1.2 A, a Vref turned down). A J2 move of
+// 60 deg at the description's acceleration loses nothing; the operator then hangs 1 kg on the
+// tool and the same move at three times the acceleration loses steps on J2 (the pull-out
+// torque of the weak driver falls short of what the load's acceleration asks for). The twin's
+// camera tracker, which follows the tool's marker through the robot's webcam, raises the
+// desync alarm within 200 ms of the tool leaving the virtual robot by more than 2 mm; homing
+// again counts the steps the truth says were lost, to within one step. The truth (the
+// emulator's side channel) only measures. Figures: docs/physical.md, "Lost steps seen while
+// they happen".
 #include <arpa/inet.h>
 #include <netinet/in.h>
 #include <poll.h>
@@ -199,13 +201,7 @@ class ReportLog {
   std::thread thread_;
 };
 
-// DISABLED until its scenario is tuned (see the issue's note): through the firmware the move at
-// the description's acceleration already loses steps with 1 kg on a 0.35-0.5 A driver (the
-// firmware's segments jump in speed where the test's smooth generator in tests/plant does
-// not), and homing again counts 2-5 steps more than the rotors lost (the J2 belt's dead band
-// is crossed the other way after the slip). What works: the camera tracker follows the marker
-// at 20 frames/s and raises its alarm while the steps are being lost.
-TEST(LostSteps, DISABLED_SeenByTheCameraWithinTwoHundredMillisecondsAndCountedByHoming) {
+TEST(LostSteps, SeenByTheCameraWithinTwoHundredMillisecondsAndCountedByHoming) {
   const fs::path dir = fs::temp_directory_path() / ("scaratwin-lost-" + std::to_string(getpid()));
   fs::remove_all(dir);
   fs::create_directories(dir);
@@ -236,6 +232,11 @@ TEST(LostSteps, DISABLED_SeenByTheCameraWithinTwoHundredMillisecondsAndCountedBy
   const size_t colon = listening->rfind(':', paren);
   HubOptions ho;
   ho.serial_device = pty.string();
+  // points 50 ms apart: the Uno's 15-point queue then runs 750 ms ahead of the host. At the
+  // hub's default 20 ms (300 ms ahead) a busy machine starved the robot (EV 5, queue underrun,
+  // in 3 of 5 runs at a load average of 7-10 on 2 cores): the motors then stop dead from
+  // speed and start again, and such a stop loses steps of its own.
+  ho.min_point_dt_s = 0.05;
   ho.sim_port =
       static_cast<std::uint16_t>(std::stoi(listening->substr(colon + 1, paren - colon - 1)));
   // the hub may plan up to three times the description's acceleration (it checks what it
@@ -257,9 +258,6 @@ TEST(LostSteps, DISABLED_SeenByTheCameraWithinTwoHundredMillisecondsAndCountedBy
     return t.empty() ? 0LL : t.back().lost_j2;
   };
   std::printf("after homing: J2 lost %lld\n", lost_now());
-  // the operator hangs 1 kg on the tool (homing with it would slip at the switches: the weak
-  // driver cannot stop the heavy arm at once)
-  ASSERT_EQ(side_command(side_port, "payload 1.0").rfind("OK", 0), 0u);
 
   TrackerOptions to;
   to.port = static_cast<std::uint16_t>(std::stoi(camera->substr(camera->rfind(':') + 1)));
@@ -312,6 +310,13 @@ TEST(LostSteps, DISABLED_SeenByTheCameraWithinTwoHundredMillisecondsAndCountedBy
     }
   }
 
+  // now the operator hangs 1 kg on the tool (the issue's "the same move with the payload and
+  // 3x the acceleration"; the calm move and the learning run without it: with 1 kg the weak
+  // driver's load angle and the arm's wobble alone take the tool 2-4 mm off the virtual robot
+  // at the description's acceleration, and homing with it would slip at the switches, the
+  // weak driver cannot stop the heavy arm at once)
+  ASSERT_EQ(side_command(side_port, "payload 1.0").rfind("OK", 0), 0u);
+  std::this_thread::sleep_for(300ms);
   // three times the acceleration (the firmware's limit raised with CF 2)
   ASSERT_TRUE((*hub)->set_setting(2, static_cast<int>(fast.motors.j2.max_accel_steps_s2)));
   const std::uint64_t fast_from = mono_us();
