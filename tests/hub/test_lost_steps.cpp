@@ -21,6 +21,7 @@
 #include <filesystem>
 #include <fstream>
 #include <mutex>
+#include <optional>
 #include <sstream>
 #include <thread>
 
@@ -251,7 +252,9 @@ TEST(LostSteps, SeenByTheCameraWithinTwoHundredMillisecondsAndCountedByHoming) {
   TruthProbe truth(side_port);
   ASSERT_TRUE(truth.ok());
   ASSERT_TRUE((*hub)->home());
-  ReportLog reports(**hub);
+  // its thread reads the hub: it ends before the hub does (below)
+  std::optional<ReportLog> reports;
+  reports.emplace(**hub);
   auto lost_now = [&] {
     std::this_thread::sleep_for(100ms);
     auto t = truth.since(0);
@@ -305,7 +308,7 @@ TEST(LostSteps, SeenByTheCameraWithinTwoHundredMillisecondsAndCountedByHoming) {
   // the twin's uncalibrated error along the calm move: what "off" is measured from
   double calm_worst = 0.0;
   for (const Truth& t : calm) {
-    if (auto v = reports.tool_at(*model, t.sim_us)) {
+    if (auto v = reports->tool_at(*model, t.sim_us)) {
       calm_worst = std::max(calm_worst, std::hypot(t.x - (*v)[0], t.y - (*v)[1]));
     }
   }
@@ -329,7 +332,7 @@ TEST(LostSteps, SeenByTheCameraWithinTwoHundredMillisecondsAndCountedByHoming) {
   // when the true tool first left the virtual one by 2 mm more than the calm run's worst
   std::optional<std::uint64_t> off_at;
   for (const Truth& t : wild) {
-    auto v = reports.tool_at(*model, t.sim_us);
+    auto v = reports->tool_at(*model, t.sim_us);
     if (v && std::hypot(t.x - (*v)[0], t.y - (*v)[1]) > calm_worst + 0.002) {
       off_at = t.mono_us;
       break;
@@ -356,6 +359,7 @@ TEST(LostSteps, SeenByTheCameraWithinTwoHundredMillisecondsAndCountedByHoming) {
   ASSERT_TRUE(hc.measured);
   EXPECT_NEAR(std::abs(hc.offset_steps[1]), static_cast<double>(std::llabs(lost)), 1.0)
       << "homing found " << hc.offset_steps[1] << " J2 steps, the truth " << lost;
+  reports.reset();
   tracker->reset();
   hub->reset();
   fs::remove_all(dir);
