@@ -3,6 +3,8 @@
 // joint <-> motor conversion.
 #include <cmath>
 #include <random>
+#include <string>
+#include <utility>
 
 #include <gtest/gtest.h>
 
@@ -224,6 +226,173 @@ TEST(Ik, RejectsNonFiniteTarget) {
   }
 }
 
+// The failure messages in full: the target, the distance or the d1 it needs, and the limit.
+TEST(Ik, FailureMessagesNameTheTargetAndTheLimit) {
+  const auto message_of = [](const ToolPose& p) {
+    auto r = inverse(model(), p, model().home);
+    return r ? std::string("(solved)") : r.error().message;
+  };
+  // 0.40 - 0.067 = 0.333 m from the shoulder; reach 0.092 + 0.095 = 0.187 m
+  EXPECT_EQ(message_of({0.40, 0.0, 0.0, 0.0}),
+            "target (0.400000, 0.000000) m is 0.333000 m from the shoulder axis, beyond the "
+            "reach of 0.187000 m");
+  // (0.0005, 0.0005) from the shoulder: sqrt(2) x 0.0005 = 0.000707 m; |0.092 - 0.095| = 0.003
+  EXPECT_EQ(message_of({0.0675, 0.0005, 0.0, 0.0}),
+            "target (0.067500, 0.000500) m is 0.000707 m from the shoulder axis, inside the dead "
+            "zone of radius 0.003000 m");
+  // the d offsets sum to -0.017 - 0.010 - 0.040 = -0.067 m: z = 0.2 needs d1 = 0.267, and the
+  // travel [0.01, 0.12] gives tool z in [-0.057, 0.053]
+  EXPECT_EQ(message_of({0.2, 0.0, 0.2, 0.0}),
+            "z = 0.200000 m needs d1 = 0.267000 m, outside the Z travel [0.01, 0.12] m (tool z "
+            "from -0.0570 to 0.0530 m)");
+  EXPECT_EQ(message_of({0.2, 0.0, NAN, 0.0}), "target (0.2, 0, nan, 0) is not finite");
+  // inverse_branches reports the same failures
+  auto b = inverse_branches(model(), {0.40, 0.0, 0.0, 0.0});
+  ASSERT_FALSE(b);
+  EXPECT_EQ(b.error().code, static_cast<int>(IkError::kBeyondReach));
+  EXPECT_EQ(b.error().message, message_of({0.40, 0.0, 0.0, 0.0}));
+}
+
+// Limit failures name the joint, its value on the elbow nearer the seed and its limits.
+TEST(Ik, LimitMessagesGiveTheJointValueAndLimits) {
+  // the arm stretched backwards (x = 0.067 - 0.187): q2 = 180 deg on both elbows
+  auto r2 = inverse(model(), {0.067 - 0.187, 0.0, -0.02, 0.0}, model().home);
+  ASSERT_FALSE(r2);
+  EXPECT_EQ(r2.error().code, static_cast<int>(IkError::kJ2Limit));
+  EXPECT_EQ(r2.error().message,
+            "no elbow solution within the joint limits: j2 = 180.000 deg is outside [-105.0, "
+            "115.0] deg (other elbow: j2 out of limits)");
+  // stretched forwards (q2 = q3 = 0) with yaw -90 deg: q4 = -90 deg on both elbows
+  auto r4 = inverse(model(), {0.067 + 0.187, 0.0, -0.02, deg_to_rad(-90)}, model().home);
+  ASSERT_FALSE(r4);
+  EXPECT_EQ(r4.error().code, static_cast<int>(IkError::kJ4Limit));
+  EXPECT_EQ(r4.error().message,
+            "no elbow solution within the joint limits: j4 = -90.000 deg is outside [0.0, 180.0] "
+            "deg (other elbow: j4 out of limits)");
+  // r^2 = a2^2 + a3^2 puts the elbow at +-90 deg; the elbow limited to +-10 deg refuses both,
+  // and the message gives the branch nearer the seed (elbow down)
+  RobotModel narrow = model();
+  narrow.limits[2] = {deg_to_rad(-10), deg_to_rad(10)};
+  const double r = std::sqrt(0.092 * 0.092 + 0.095 * 0.095);
+  auto r3 = inverse_all(narrow, {0.067 + r, 0.0, -0.02, 0.0}, {0.05, 0.8, -1.5, 0.8});
+  ASSERT_FALSE(r3);
+  EXPECT_EQ(r3.error().code, static_cast<int>(IkError::kJ3Limit));
+  EXPECT_EQ(r3.error().message,
+            "no elbow solution within the joint limits: j3 = -90.000 deg is outside [-10.0, 10.0] "
+            "deg (other elbow: j3 out of limits)");
+}
+
+// A stretched arm has one elbow solution, not two equal ones.
+TEST(Ik, StretchedArmHasOneSolution) {
+  auto all = inverse_all(model(), {0.067 + 0.187, 0.0, -0.02, deg_to_rad(45)}, model().home);
+  ASSERT_TRUE(all) << all.error().message;
+  EXPECT_EQ(all->count, 1);
+  const JointVector& q = all->solutions[0];
+  EXPECT_NEAR(q[0], -0.02 + 0.067, 1e-15);
+  EXPECT_NEAR(q[1], 0.0, 1e-7);  // acos near 1 loses half the digits
+  EXPECT_NEAR(q[2], 0.0, 1e-7);
+  EXPECT_NEAR(q[3], deg_to_rad(45), 1e-7);
+}
+
+// When only the other elbow fits the limits, it is the one solution, whatever the seed.
+TEST(Ik, OnlyTheElbowInsideTheLimitsIsReturned) {
+  // elbow down at q2 = q3 = -60 deg; the elbow-up twin needs q2 = -60 - 2 atan2(a3 sin 60,
+  // a2 + a3 cos 60) = -121.1 deg, past the shoulder's -105
+  const JointVector down{0.06, deg_to_rad(-60), deg_to_rad(-60), deg_to_rad(30)};
+  const double twin_q2 =
+      -60.0 - 2.0 * rad_to_deg(std::atan2(0.095 * std::sin(deg_to_rad(60)),
+                                          0.092 + 0.095 * std::cos(deg_to_rad(60))));
+  ASSERT_LT(twin_q2, -105.0);
+  // the pose by hand: links at -60 and -120 deg, yaw -90 deg
+  const ToolPose p{0.067 + 0.092 * 0.5 - 0.095 * 0.5,
+                   -0.092 * std::sqrt(3.0) / 2 - 0.095 * std::sqrt(3.0) / 2, 0.06 - 0.067,
+                   deg_to_rad(-90)};
+  const JointVector up_seed{0.06, deg_to_rad(-120), deg_to_rad(60), deg_to_rad(0)};
+  auto all = inverse_all(model(), p, up_seed);
+  ASSERT_TRUE(all) << all.error().message;
+  EXPECT_EQ(all->count, 1);
+  for (int j = 0; j < kNumJoints; ++j) EXPECT_NEAR(all->solutions[0][j], down[j], 1e-12) << j;
+  auto one = inverse(model(), p, up_seed);
+  ASSERT_TRUE(one);
+  EXPECT_EQ(*one, all->solutions[0]);
+}
+
+// A joint whose travel holds more than one turn takes the turn nearest the seed.
+TEST(Ik, WideJointTakesTheTurnNearestTheSeed) {
+  RobotModel wide = model();
+  wide.limits[1] = {deg_to_rad(-190), deg_to_rad(190)};  // 6.63 rad: 175 and -185 deg both fit
+  // elbow up at q2 = 175, q3 = 20, q4 = 90 deg: links at 175 and 195 deg, yaw 285 = -75 deg
+  const double l2 = deg_to_rad(175), l3 = deg_to_rad(195);
+  const ToolPose p{0.067 + 0.092 * std::cos(l2) + 0.095 * std::cos(l3),
+                   0.092 * std::sin(l2) + 0.095 * std::sin(l3), -0.02, deg_to_rad(-75)};
+  for (const auto& [seed_q2, want_q2] : {std::pair{3.0, 175.0}, std::pair{-3.0, -185.0}}) {
+    const JointVector seed{0.05, seed_q2, deg_to_rad(20), deg_to_rad(90)};
+    auto one = inverse(wide, p, seed);
+    auto all = inverse_all(wide, p, seed);
+    ASSERT_TRUE(one && all) << seed_q2;
+    EXPECT_NEAR((*one)[1], deg_to_rad(want_q2), 1e-12) << seed_q2;
+    EXPECT_NEAR((*one)[2], deg_to_rad(20), 1e-12) << seed_q2;
+    EXPECT_NEAR((*one)[3], deg_to_rad(90), 1e-12) << seed_q2;
+    EXPECT_EQ(*one, all->solutions[0]) << seed_q2;
+  }
+}
+
+// A tool off the wrist axis (dh.j4.a) and a base turned about z (dh.j1.theta), by hand.
+TEST(Fk, ToolOffsetAndTurnedBase) {
+  RobotModel m = model();
+  m.dh[0].theta_rad = kPi / 2;  // j1's link along +y
+  m.dh[3].a_m = 0.03;           // jaws 30 mm ahead of the wrist axis
+  // q2 = 0, q3 = 90, q4 = 90 deg: link angles 90, 90, 180, 270 deg
+  const JointVector q{0.05, 0.0, kPi / 2, kPi / 2};
+  const ToolPose p = forward(m, q);
+  EXPECT_NEAR(p.x_m, -0.095, 1e-15);
+  EXPECT_NEAR(p.y_m, 0.067 + 0.092 - 0.03, 1e-15);
+  EXPECT_NEAR(p.z_m, 0.05 - 0.067, 1e-15);
+  EXPECT_NEAR(p.yaw_rad, -kPi / 2, 1e-15);
+  const Eigen::Matrix4d t = forward_transform(m, q);
+  EXPECT_NEAR(t(0, 3), -0.095, 1e-15);
+  EXPECT_NEAR(t(1, 3), 0.129, 1e-15);
+  // and back: the joints above are the elbow-up solution
+  auto back = inverse(m, p, q);
+  ASSERT_TRUE(back) << back.error().message;
+  for (int j = 0; j < kNumJoints; ++j) EXPECT_NEAR((*back)[j], q[j], 1e-12) << j;
+}
+
+// A yaw of billions of radians is whole turns plus the yaw: inverse() takes the turns off on
+// its general path (the hot path's angles stay below 1e9 rad).
+TEST(Ik, HugeYawIsWholeTurnsOff) {
+  const JointVector q{0.06, 0.3, 0.6, 1.0};
+  const ToolPose p = forward(model(), q);
+  ToolPose spun = p;
+  spun.yaw_rad = 1.9 + 2.0 * kPi * 2e9;  // about 1.26e10 rad: a double keeps 2e-6 rad of it
+  auto r = inverse(model(), spun, model().home);
+  ASSERT_TRUE(r) << r.error().message;
+  EXPECT_NEAR((*r)[0], 0.06, 1e-15);
+  EXPECT_NEAR((*r)[1], 0.3, 1e-12);
+  EXPECT_NEAR((*r)[2], 0.6, 1e-12);
+  EXPECT_NEAR((*r)[3], 1.0, 1e-5);
+}
+
+// Equal links fold onto the shoulder axis: the elbow at 180 deg, any shoulder angle.
+TEST(Ik, EqualLinksFoldOntoTheShoulderAxis) {
+  RobotModel m = model();
+  m.dh[1].a_m = m.dh[2].a_m = 0.09;
+  m.limits[3] = {-kPi, kPi};  // q4 = yaw - q2 - 180 deg
+  auto all = inverse_all(m, {0.067, 0.0, -0.02, deg_to_rad(60)}, m.home);
+  ASSERT_TRUE(all) << all.error().message;
+  const JointVector& q = all->solutions[0];
+  EXPECT_NEAR(q[0], -0.02 + 0.067, 1e-15);
+  EXPECT_NEAR(q[2], kPi, 1e-7);
+  EXPECT_NEAR(wrap_angle(q[1] + q[2] + q[3] - deg_to_rad(60)), 0.0, 1e-12);
+}
+
+TEST(JointName, NamesTheFourJointsAndNothingElse) {
+  EXPECT_STREQ(joint_name(0), "j1");
+  EXPECT_STREQ(joint_name(3), "j4");
+  EXPECT_STREQ(joint_name(4), "j?");
+  EXPECT_STREQ(joint_name(-1), "j?");
+}
+
 TEST(Jacobian, MatchesFiniteDifferences) {
   std::mt19937_64 rng(3);
   for (int i = 0; i < 200; ++i) {
@@ -256,6 +425,63 @@ TEST(Motor, ConvertsJointsToStepsWithBeltCoupling) {
   const auto s0 = joints_to_steps(model(), {0.05, 0.0, 0.3, 0.0});
   const auto s1 = joints_to_steps(model(), {0.05, 0.5, 0.3, 0.0});
   EXPECT_NEAR(s1[2] - s0[2], 0.8 * (s1[1] - s0[1]), 1.0);
+}
+
+// Homing leaves each joint having moved away from its switch: Z and J2 seek upwards (+1), so
+// they rest having moved down (-1); J3 seeks downwards and rests having moved up.
+TEST(Motor, HomedDirectionsAreAwayFromTheSwitches) {
+  EXPECT_EQ(homed_directions(model()), (MotionDirections{-1, -1, +1}));
+  RobotModel m = model();
+  m.endstops.homing_dir = {-1, +1, +1};
+  EXPECT_EQ(homed_directions(m), (MotionDirections{+1, -1, -1}));
+}
+
+// A move sets the direction of each stepper joint that moved (more than 1e-9) and leaves the
+// others, and the wrist, alone.
+TEST(Motor, TrackDirectionsFollowsTheJointsThatMoved) {
+  MotionDirections dir = homed_directions(model());  // {-1, -1, +1}
+  track_directions(dir, {0.10, 0.5, 0.2, 0.0}, {0.101, 0.5 + 1e-12, 0.1, 1.0});
+  EXPECT_EQ(dir, (MotionDirections{+1, -1, -1}));
+  track_directions(dir, {0.10, 0.5, 0.2, 0.0}, {0.10, 0.6, 0.2, -1.0});
+  EXPECT_EQ(dir, (MotionDirections{+1, +1, -1}));
+  MotionDirections unknown{0, 0, 0};
+  track_directions(unknown, {0.10, 0.5, 0.2, 0.0}, {0.10, 0.5, 0.2, 0.0});
+  EXPECT_EQ(unknown, (MotionDirections{0, 0, 0})) << "no move, still unknown";
+}
+
+// A joint that last moved up rests half its dead band below the middle: -dir x backlash / 2.
+TEST(Motor, BacklashShiftIsHalfTheDeadBandAgainstTheLastMove) {
+  RobotModel m = model();
+  m.calibration.backlash = {0.0002, 0.004, 0.006};
+  const JointVector s = backlash_shift(m, {+1, -1, 0});
+  EXPECT_DOUBLE_EQ(s[0], -0.0001);
+  EXPECT_DOUBLE_EQ(s[1], 0.002);
+  EXPECT_EQ(s[2], 0.0) << "direction unknown: the middle";
+  EXPECT_EQ(s[3], 0.0) << "the wrist has no dead band here";
+  EXPECT_EQ(backlash_shift(model(), {1, 1, 1}), (JointVector{})) << "uncalibrated: none";
+}
+
+// A calibrated horn offset may put the wrist's joint limit a little past the servo's travel:
+// the command stops at the servo's end (up to 5 deg past it); farther is left as it is.
+TEST(Motor, CalibratedWristStopsAtTheServosEnd) {
+  RobotModel m = model();
+  m.calibration.wrist_offset_rad = deg_to_rad(2.0);  // q4 = q4_fw + 2 deg
+  EXPECT_EQ(joints_to_motors(m, {0.1, 0, 0, 0.0}).wrist_deg, 0.0) << "-2 deg: at the end";
+  EXPECT_NEAR(joints_to_motors(m, {0.1, 0, 0, deg_to_rad(-10)}).wrist_deg, -12.0, 1e-12);
+  EXPECT_NEAR(joints_to_motors(m, {0.1, 0, 0, deg_to_rad(90)}).wrist_deg, 88.0, 1e-12);
+  m.calibration.wrist_offset_rad = deg_to_rad(-2.0);
+  EXPECT_EQ(joints_to_motors(m, {0.1, 0, 0, kPi}).wrist_deg, 180.0) << "182 deg: at the end";
+  EXPECT_EQ(joints_to_motors(m, {0.1, 0, 0, deg_to_rad(182)}).wrist_deg, 180.0) << "184 deg";
+  EXPECT_NEAR(joints_to_motors(m, {0.1, 0, 0, deg_to_rad(184)}).wrist_deg, 186.0, 1e-12)
+      << "6 deg past the end: not the horn's offset";
+  // a gain alone: q4 = 1.1 q4_fw, so 198 deg of joint is 180 deg of servo, 199 deg clamps
+  m.calibration.wrist_offset_rad = 0.0;
+  m.calibration.wrist_gain = 0.1;
+  EXPECT_NEAR(joints_to_motors(m, {0.1, 0, 0, deg_to_rad(198)}).wrist_deg, 180.0, 1e-12);
+  EXPECT_EQ(joints_to_motors(m, {0.1, 0, 0, deg_to_rad(199)}).wrist_deg, 180.0);
+  // uncalibrated, the conversion is the plain one on both sides
+  EXPECT_NEAR(joints_to_motors(model(), {0.1, 0, 0, deg_to_rad(-2)}).wrist_deg, -2.0, 1e-12);
+  EXPECT_NEAR(joints_to_motors(model(), {0.1, 0, 0, deg_to_rad(182)}).wrist_deg, 182.0, 1e-12);
 }
 
 // The paper's switches in counts: Z 0.1225 m, J2 117 deg, J3 -77 deg as a joint count (no
