@@ -200,6 +200,40 @@ TEST(Ramp, VelocityModeRunsAtSpeedAndStopsAtTheLimit) {
   EXPECT_LT(sum, -1000);
 }
 
+// A hard stop forgets the motion: no speed, no steps owed, and the next move starts from rest
+// (at 1500 steps/s^2 the first 10 ms interval reaches 15 steps/s: 0.15 step, none emitted).
+TEST(Ramp, ResetForgetsAllMotion) {
+  AxisRamp r;
+  r.move_by(5000);
+  int32_t sum = 0;
+  for (int k = 0; k < 100; ++k) sum += r.next(0.01f, 5000.0f, 1500.0f);
+  ASSERT_FLOAT_EQ(r.speed(), 1500.0f) << "1 s at 1500 steps/s^2";
+  // 15 steps/s more each interval: 0.01 x 15 x (1 + 2 + ... + 100) = 757.5 steps
+  ASSERT_NEAR(sum, 757.5, 1.0);
+  r.reset();
+  EXPECT_TRUE(r.idle());
+  EXPECT_EQ(r.mode(), AxisRamp::kIdle);
+  EXPECT_EQ(r.speed(), 0.0f);
+  EXPECT_EQ(r.next(0.01f, 5000.0f, 1500.0f), 0) << "idle emits nothing";
+  r.move_by(100);
+  EXPECT_EQ(r.next(0.01f, 5000.0f, 1500.0f), 0);
+  EXPECT_FLOAT_EQ(r.speed(), 15.0f);
+  sum = 0;
+  int n = 1;
+  while (!r.idle() && n < 10000) {
+    sum += r.next(0.01f, 5000.0f, 1500.0f);
+    ++n;
+  }
+  EXPECT_EQ(sum, 100) << "the whole move, none of the 4242 steps left of the one before";
+  // the same after a velocity run
+  r.run_at(-800.0f);
+  for (int k = 0; k < 10; ++k) r.next(0.01f, 5000.0f, 1500.0f);
+  EXPECT_FLOAT_EQ(r.speed(), -150.0f);
+  r.reset();
+  EXPECT_TRUE(r.idle());
+  EXPECT_EQ(r.speed(), 0.0f);
+}
+
 TEST(Settings, DefaultsAreValidAndCorruptionIsDetected) {
   Settings s;
   settings_defaults(s);
