@@ -3,7 +3,7 @@
 # test installs the Debian packages on this machine: CI is root); then checks
 # that CMake's default generator (Unix Makefiles, the presets use Ninja) builds the parts with
 # custom build steps: the browser page (npm ci), the generated firmware header and the firmware
-# (SCARATWIN_TEST_MAKE=0 skips that check).
+# (SCARATWIN_TEST_MAKE=0 skips that check). Between the two: coverage (scripts/coverage.sh).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 scripts/install-deps.sh
@@ -25,6 +25,11 @@ echo "tests registered: $registered (floor $floor)"
 export SCARATWIN_PACKAGE_TEST=required
 # long runs (label `long`: more builds to calibrate, ...) are run by hand, docs/calibration.md
 ctest --preset ci -j "$jobs" -LE long
+# line and branch coverage of the pure core and the firmware's modules against their floors
+# (docs/coverage.md; SCARATWIN_TEST_COVERAGE=0 skips it)
+if [[ "${SCARATWIN_TEST_COVERAGE:-1}" != 0 ]]; then
+  scripts/coverage.sh
+fi
 if [[ "${SCARATWIN_TEST_MAKE:-1}" != 0 ]]; then
   cmake -S . -B build/ci-make -G "Unix Makefiles" -DSCARATWIN_BUILD_TESTS=OFF \
     -DSCARATWIN_BUILD_BENCH=OFF -DSCARATWIN_WERROR=ON
