@@ -2,6 +2,7 @@
 
 #include "scaratwin/transport/channel.hpp"
 
+#include <algorithm>
 #include <boost/asio/post.hpp>
 #include <boost/asio/steady_timer.hpp>
 #include <condition_variable>
@@ -99,6 +100,7 @@ struct Channel<Out, In>::State {
     Reply reply;
     ReplyHandler handler;
     std::int64_t deadline_us = 0;
+    std::int64_t allowance_us = 0;  // how long it may wait before the peer counts as hung
     bool abandoned = false;
   };
   using EntryPtr = std::shared_ptr<Entry>;
@@ -120,6 +122,56 @@ struct Channel<Out, In>::State {
   std::shared_ptr<boost::asio::steady_timer> timer;
   bool timer_armed = false;  // under the mutex
   static constexpr std::chrono::milliseconds kSweepTick{10};
+  // Liveness (ChannelOptions::heartbeat), under the mutex: when the connection in place came
+  // up or last delivered a byte, when a request last went out.
+  std::shared_ptr<boost::asio::steady_timer> heartbeat_timer;
+  bool link_up = false;
+  std::int64_t last_rx_us = 0;
+  std::int64_t last_tx_us = 0;
+  std::uint64_t heartbeat_drops = 0;
+  std::string drop_reason;
+  static constexpr std::chrono::milliseconds kHeartbeatTick{50};
+
+  // io thread: every tick, pings a quiet peer and ends the connection of a hung one. The
+  // timer is passed along (the destructor takes the member away and cancels it).
+  static void arm_heartbeat(std::weak_ptr<State> weak,
+                            std::shared_ptr<boost::asio::steady_timer> t) {
+    t->expires_after(kHeartbeatTick);
+    t->async_wait([weak, t](const boost::system::error_code& ec) {
+      if (ec) return;
+      auto st = weak.lock();
+      if (!st) return;
+      st->heartbeat_tick();
+      arm_heartbeat(weak, t);
+    });
+  }
+
+  void heartbeat_tick() {
+    const std::int64_t now = steady_now_us();
+    std::vector<Completion> done;
+    bool drop = false;
+    {
+      std::lock_guard lock(mutex);
+      if (!link_up) return;
+      if (!pending.empty()) {
+        const EntryPtr& oldest = pending.front();
+        const std::int64_t waited = now - oldest->reply.sent_steady_us;
+        const std::int64_t quiet = now - last_rx_us;
+        if (waited > oldest->allowance_us && quiet > options.dead_after.count() * 1000) {
+          drop_reason = "no reply to " + oldest->code + " for " + std::to_string(waited / 1000) +
+                        " ms and nothing else received (the peer hangs)";
+          ++heartbeat_drops;
+          link_up = false;
+          drop = true;
+        }
+      } else if (queued.empty() && now - last_tx_us >= options.heartbeat.count() * 1000) {
+        auto e = make_entry(Out{Ping{}}, nullptr, options.dead_after);
+        if (e) (void)submit(*e);
+      }
+    }
+    // the link reports the loss through on_state, which fails what is pending
+    if (drop) link->drop();
+  }
 
   // Under the lock: makes sure the sweep timer runs while requests wait for replies.
   void arm_sweep(const std::shared_ptr<State>& self) {
@@ -164,6 +216,7 @@ struct Channel<Out, In>::State {
 
   void transmit(const EntryPtr& e, std::vector<Completion>& done) {
     e->reply.sent_steady_us = steady_now_us();
+    last_tx_us = e->reply.sent_steady_us;
     if (Status s = link->send(e->bytes); !s) {
       if (e->handler) done.emplace_back(std::move(e->handler), s.error());
       return;
@@ -176,6 +229,7 @@ struct Channel<Out, In>::State {
   Status submit(const EntryPtr& e) {
     if (queued.empty() && fits(e->bytes.size())) {
       e->reply.sent_steady_us = steady_now_us();
+      last_tx_us = e->reply.sent_steady_us;
       Status status = link->send(e->bytes);
       if (status) {
         outstanding += e->bytes.size();
@@ -200,6 +254,10 @@ struct Channel<Out, In>::State {
     e->seq = seq_of(message);
     e->handler = std::move(handler);
     e->deadline_us = steady_now_us() + timeout.count() * 1000;
+    const bool slow = std::find(options.slow_codes.begin(), options.slow_codes.end(), e->code) !=
+                      options.slow_codes.end();
+    e->allowance_us =
+        (slow ? std::max(timeout, options.dead_after) : options.dead_after).count() * 1000;
     return e;
   }
 
@@ -296,6 +354,10 @@ struct Channel<Out, In>::State {
   }
 
   void on_packet(RxPacket&& packet) {
+    {
+      std::lock_guard lock(mutex);
+      last_rx_us = std::max(last_rx_us, packet.steady_us);
+    }
     std::string bytes;
     if (packet.kind == FrameKind::kOverlong || packet.kind == FrameKind::kOversize) {
       count_decode_error(packet.kind == FrameKind::kOverlong
@@ -329,7 +391,15 @@ struct Channel<Out, In>::State {
     {
       std::lock_guard lock(mutex);
       if (s != LinkState::kConnected) {
-        fail_all(core::kErrDisconnected, std::string("failed: link ") + link_state_name(s), done);
+        fail_all(core::kErrDisconnected,
+                 std::string("failed: link ") + link_state_name(s) +
+                     (drop_reason.empty() ? std::string() : ": " + drop_reason),
+                 done);
+        link_up = false;
+      } else {
+        link_up = true;
+        last_rx_us = steady_now_us();
+        drop_reason.clear();
       }
       decoder.reset();
       tracker.reset();
@@ -346,8 +416,18 @@ Channel<Out, In>::Channel(Link& link, ChannelOptions options)
   state_->link = &link;
   state_->options = options;
   state_->timer = std::make_shared<boost::asio::steady_timer>(link.io_thread().context());
+  state_->link_up = link.connected();
+  state_->last_rx_us = steady_now_us();
   link_.set_packet_handler([st = state_](RxPacket&& p) { st->on_packet(std::move(p)); });
   link_.set_state_handler([st = state_](LinkState s) { st->on_state(s); });
+  if (options.heartbeat.count() > 0) {
+    state_->heartbeat_timer =
+        std::make_shared<boost::asio::steady_timer>(link.io_thread().context());
+    boost::asio::post(link.io_thread().context(),
+                      [weak = std::weak_ptr<State>(state_), t = state_->heartbeat_timer] {
+                        State::arm_heartbeat(weak, t);
+                      });
+  }
 }
 
 template <class Out, class In>
@@ -361,6 +441,9 @@ Channel<Out, In>::~Channel() {
     // the timer is cancelled and destroyed on the io thread, where its handler runs
     auto timer = std::move(state_->timer);
     boost::asio::post(timer->get_executor(), [timer] { timer->cancel(); });
+    if (auto hb = std::move(state_->heartbeat_timer)) {
+      boost::asio::post(hb->get_executor(), [hb] { hb->cancel(); });
+    }
   }
   State::run(done);
   // A packet being delivered right now may still be on its way to the handlers (they are
@@ -447,6 +530,27 @@ Status Channel<Out, In>::send_realtime(protocol::Realtime command) {
 }
 
 template <class Out, class In>
+void Channel<Out, In>::fail_pending(const std::string& why) {
+  std::vector<typename State::Completion> done;
+  {
+    std::lock_guard lock(state_->mutex);
+    const auto fail = [&](const typename State::EntryPtr& e) {
+      if (e->abandoned) return;
+      e->abandoned = true;
+      if (e->handler) {
+        done.emplace_back(
+            std::move(e->handler),
+            proto_error(core::kErrDisconnected, link_.name() + ": " + e->code + " failed: " + why));
+      }
+    };
+    for (auto& e : state_->pending) fail(e);
+    for (auto& e : state_->queued) fail(e);
+    state_->queued.clear();
+  }
+  State::run(done);
+}
+
+template <class Out, class In>
 void Channel<Out, In>::set_unsolicited_handler(UnsolicitedHandler handler) {
   std::lock_guard lock(state_->mutex);
   state_->unsolicited = std::move(handler);
@@ -486,6 +590,18 @@ template <class Out, class In>
 std::uint64_t Channel<Out, In>::lost_packets() const {
   std::lock_guard lock(state_->mutex);
   return state_->tracker.lost();
+}
+
+template <class Out, class In>
+std::uint64_t Channel<Out, In>::heartbeat_drops() const {
+  std::lock_guard lock(state_->mutex);
+  return state_->heartbeat_drops;
+}
+
+template <class Out, class In>
+std::string Channel<Out, In>::last_drop_reason() const {
+  std::lock_guard lock(state_->mutex);
+  return state_->drop_reason;
 }
 
 template class Channel<protocol::SerialToDevice, protocol::SerialFromDevice>;

@@ -202,6 +202,12 @@ LinkCounters LinkImpl::counters() const {
   return c;
 }
 
+void LinkImpl::drop() {
+  boost::asio::post(context(), [self = shared_from_this()] {
+    if (!self->closed()) self->drop_connection();
+  });
+}
+
 void LinkImpl::close() {
   if (closed_.exchange(true)) return;
   auto self = shared_from_this();
@@ -358,6 +364,7 @@ Status Link::wait_connected(Duration timeout) { return impl_->wait_connected(tim
 LinkCounters Link::counters() const { return impl_->counters(); }
 void Link::add_lost_packets(std::uint64_t n) { impl_->add_lost(n); }
 void Link::add_error() { impl_->add_error(); }
+void Link::drop() { impl_->drop(); }
 void Link::close() { impl_->close(); }
 IoThread& Link::io_thread() const { return impl_->io(); }
 

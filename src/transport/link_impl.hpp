@@ -45,6 +45,8 @@ class LinkImpl : public std::enable_shared_from_this<LinkImpl> {
   LinkCounters counters() const;
   void add_lost(std::uint64_t n) { lost_packets_ += n; }
   void add_error() { errors_++; }
+  // Posts drop_connection() to the io thread.
+  void drop();
   // Closes on the io thread and waits until every handler of this link has run (unless
   // called on the io thread itself).
   void close();
@@ -76,6 +78,8 @@ class LinkImpl : public std::enable_shared_from_this<LinkImpl> {
   virtual void shutdown() = 0;
   // io thread: true when a connection is up to write to.
   virtual bool can_write() const = 0;
+  // io thread: end the current connection as failed (Link::drop); kinds that can reconnect.
+  virtual void drop_connection() {}
 
  private:
   void deliver(Frame&& frame, std::int64_t steady_us, std::int64_t system_us,

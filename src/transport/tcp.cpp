@@ -74,6 +74,12 @@ class TcpClientImpl final : public detail::LinkImpl {
 
   bool can_write() const override { return session_ && !session_->stopped(); }
 
+  void drop_connection() override {
+    if (!session_) return;
+    session_->stop();
+    lost(true);
+  }
+
   void shutdown() override {
     resolver_.cancel();
     timer_.cancel();

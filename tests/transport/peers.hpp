@@ -32,6 +32,15 @@ inline void write_fd(int fd, std::string_view bytes) {
   }
 }
 
+// For sockets: a peer that went away is EPIPE, not SIGPIPE.
+inline void send_fd(int fd, std::string_view bytes) {
+  while (!bytes.empty()) {
+    ssize_t n = ::send(fd, bytes.data(), bytes.size(), MSG_NOSIGNAL);
+    if (n <= 0) return;
+    bytes.remove_prefix(static_cast<std::size_t>(n));
+  }
+}
+
 inline std::uint32_t now_us32() {
   return static_cast<std::uint32_t>(std::chrono::duration_cast<std::chrono::microseconds>(
                                         std::chrono::steady_clock::now().time_since_epoch())
@@ -197,16 +206,25 @@ class SimPeer {
   std::vector<std::uint8_t> png;
   std::vector<protocol::JointData> joints;  // JD received
   std::atomic<bool> ignore_pings{false};
+  // Hangs like a stopped process: reads, answers and accepts nothing, its connection open
+  // (the kernel still completes new connections into the listen backlog).
+  std::atomic<bool> hang{false};
+  // A camera shot takes this long to answer (the loop blocked, as a render blocks it).
+  std::atomic<int> camera_ms{0};
 
  private:
   void reply(const protocol::TcpFromSim& msg) {
     auto bytes = protocol::encode(msg);
-    if (bytes) write_fd(conn_, *bytes);
+    if (bytes) send_fd(conn_, *bytes);
   }
 
   void loop() {
     auto decoder = std::make_unique<protocol::TcpToSimDecoder>();
     while (!stop_) {
+      if (hang) {
+        std::this_thread::sleep_for(std::chrono::milliseconds(2));
+        continue;
+      }
       if (drop_ && conn_ >= 0) {
         ::close(conn_);
         conn_ = -1;
@@ -250,6 +268,7 @@ class SimPeer {
     } else if (auto* gr = std::get_if<Grasp>(&msg)) {
       reply(GripperState{gr->close, gr->close ? 7 : -1});
     } else if (auto* cs = std::get_if<CameraShoot>(&msg)) {
+      std::this_thread::sleep_for(std::chrono::milliseconds(camera_ms.load()));
       if (cs->width_px == 1) {
         reply(ErrorReply{core::kErrInternal, 0});
       } else {
@@ -265,7 +284,7 @@ class SimPeer {
         }
       }
       (void)append(out, TcpFromSim(Ack{"OP", count}));
-      write_fd(conn_, out);
+      send_fd(conn_, out);
     } else {
       reply(Ack{encode(msg)->substr(0, 2), std::nullopt});
     }

@@ -9,6 +9,7 @@
 #include <fstream>
 #include <random>
 
+#include "eventually.hpp"
 #include "peers.hpp"
 #include "scaratwin/core/units.hpp"
 #include "scaratwin/kinematics/motor.hpp"
@@ -45,7 +46,7 @@ struct Rig {
   std::unique_ptr<SimChannel> simc;
   std::unique_ptr<Twin> twin;
 
-  Rig() {
+  explicit Rig(ChannelOptions sim_options = {}) {
     SerialOptions so;
     so.device = device.path();
     serial = std::move(SerialLink::create(so).value());
@@ -55,7 +56,7 @@ struct Rig {
     to.link.reconnect_max = Duration{50};
     tcp = std::move(TcpClient::create(to).value());
     robot = std::make_unique<RobotChannel>(*serial, robot_channel_defaults());
-    simc = std::make_unique<SimChannel>(*tcp);
+    simc = std::make_unique<SimChannel>(*tcp, sim_options);
     twin = std::make_unique<Twin>(model, robot.get(), simc.get());
   }
   bool up() { return serial->wait_connected(kWait) && tcp->wait_connected(kWait); }
@@ -393,6 +394,91 @@ TEST(Channel, DisconnectFailsPendingRequestsAndUnsolicitedPacketsArrive) {
   ASSERT_TRUE(rig.tcp->wait_connected(kWait));
   auto again = rig.simc->request(protocol::Ping{2}, kWait);
   ASSERT_TRUE(again) << again.error().message;
+}
+
+// The heartbeat: a peer that hangs with its connection open (a stopped simulator) answers
+// nothing and sends no end of stream; the channel pings it, ends the connection once a
+// request waited dead_after with nothing received, and the link reconnects; once the peer
+// answers again the link stays up. Without the heartbeat (ChannelOptions default) the hung
+// peer goes unnoticed: checked by hand with heartbeat 0 (the drop never comes).
+ChannelOptions heartbeat_options() {
+  ChannelOptions o;
+  o.heartbeat = Duration{50};
+  o.dead_after = Duration{300};
+  return o;
+}
+
+TEST(Channel, HeartbeatEndsTheConnectionOfAHungPeerAndTheLinkComesBack) {
+  Rig rig(heartbeat_options());
+  ASSERT_TRUE(rig.up());
+  std::mutex m;
+  std::vector<LinkState> states;
+  rig.simc->set_state_handler([&](LinkState s) {
+    std::lock_guard lock(m);
+    states.push_back(s);
+  });
+  // a healthy peer is pinged and never dropped
+  std::this_thread::sleep_for(std::chrono::milliseconds(600));
+  EXPECT_EQ(rig.simc->heartbeat_drops(), 0u);
+  EXPECT_GE(rig.tcp->counters().packets_out, 5u) << "pings went out";
+  EXPECT_EQ(rig.tcp->counters().disconnects, 0u);
+
+  rig.sim.hang = true;
+  ASSERT_TRUE(eventually([&] { return rig.simc->heartbeat_drops() >= 1; },
+                         std::chrono::milliseconds(5000)));
+  EXPECT_NE(rig.simc->last_drop_reason().find("no reply to PI for "), std::string::npos)
+      << rig.simc->last_drop_reason();
+  EXPECT_GE(rig.tcp->counters().disconnects, 1u);
+  {
+    std::lock_guard lock(m);
+    EXPECT_NE(std::find(states.begin(), states.end(), LinkState::kDisconnected), states.end());
+  }
+  // a request sent to the hung peer fails as disconnected instead of waiting its timeout
+  ASSERT_TRUE(rig.tcp->wait_connected(kWait));
+  auto lost = rig.simc->request(protocol::Ping{3}, Duration{20000});
+  ASSERT_FALSE(lost);
+  EXPECT_EQ(lost.error().code, protocol::core::kErrDisconnected) << lost.error().message;
+
+  // the peer resumes: it reads the connections the client gave up on from its backlog, then
+  // the live one; the link comes back and stays up
+  rig.sim.hang = false;
+  ASSERT_TRUE(eventually(
+      [&] { return static_cast<bool>(rig.simc->request(protocol::Ping{4}, Duration{200})); },
+      std::chrono::milliseconds(10000)));
+  const std::uint64_t drops = rig.simc->heartbeat_drops();
+  std::this_thread::sleep_for(std::chrono::milliseconds(600));
+  EXPECT_EQ(rig.simc->heartbeat_drops(), drops) << rig.simc->last_drop_reason();
+  auto ping = rig.simc->request(protocol::Ping{5}, kWait);
+  ASSERT_TRUE(ping) << ping.error().message;
+}
+
+// A camera shot blocks the peer (a render) longer than dead_after: as a slow code it may take
+// its own timeout, and the connection stays; the same shot without the exemption ends it.
+TEST(Channel, HeartbeatLetsASlowCodeTakeItsOwnTimeout) {
+  for (const bool exempt : {true, false}) {
+    ChannelOptions o = heartbeat_options();
+    if (exempt) o.slow_codes = {"CS"};
+    Rig rig(o);
+    ASSERT_TRUE(rig.up());
+    {
+      std::lock_guard lock(rig.sim.m);
+      rig.sim.png = {0x89, 'P', 'N', 'G'};
+    }
+    rig.sim.camera_ms = 900;
+    auto shot = rig.simc->request(protocol::CameraShoot{640, 480}, Duration{5000});
+    if (exempt) {
+      ASSERT_TRUE(shot) << shot.error().message;
+      EXPECT_TRUE(std::holds_alternative<protocol::Image>(shot->last()));
+      EXPECT_EQ(rig.simc->heartbeat_drops(), 0u);
+      EXPECT_EQ(rig.tcp->counters().disconnects, 0u);
+    } else {
+      ASSERT_FALSE(shot);
+      EXPECT_EQ(shot.error().code, protocol::core::kErrDisconnected) << shot.error().message;
+      EXPECT_NE(shot.error().message.find("no reply to CS for "), std::string::npos)
+          << shot.error().message;
+      EXPECT_EQ(rig.simc->heartbeat_drops(), 1u);
+    }
+  }
 }
 
 }  // namespace

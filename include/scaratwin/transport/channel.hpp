@@ -20,6 +20,7 @@
 #include <cstdint>
 #include <functional>
 #include <memory>
+#include <string>
 #include <vector>
 
 #include "scaratwin/core/result.hpp"
@@ -32,6 +33,14 @@ namespace scaratwin::transport {
 struct ChannelOptions {
   // Bytes of sent but unanswered lines the peer can buffer; 0 = unlimited (TCP).
   std::size_t window_bytes = 0;
+  // Liveness (a peer that hangs without closing its connection): with heartbeat > 0 the
+  // channel pings (PI) whenever nothing it sent has been waiting for a reply for `heartbeat`,
+  // and ends the connection (Link::drop, kErrDisconnected for every pending request) when the
+  // oldest unanswered request has waited `dead_after` and no byte came meanwhile. A request
+  // whose code is in `slow_codes` (a camera shot) may take its own timeout instead.
+  Duration heartbeat{0};
+  Duration dead_after{1000};
+  std::vector<std::string> slow_codes;
 };
 inline constexpr std::size_t kSerialWindowBytes = 64;
 
@@ -67,6 +76,11 @@ class Channel {
   // outside the window; no reply.
   Status send_realtime(protocol::Realtime command);
 
+  // Fails every request waiting for a reply or for the window with kErrDisconnected and
+  // `why`, at once (the layer above found the link silent). Sent requests stay in line,
+  // abandoned, so that late replies are still matched by their codes (as after a timeout).
+  void fail_pending(const std::string& why);
+
   void set_unsolicited_handler(UnsolicitedHandler handler);
   // Link state changes, forwarded (the channel itself uses the link's state handler).
   void set_state_handler(Link::StateHandler handler);
@@ -79,6 +93,10 @@ class Channel {
   std::string last_decode_error() const;
   // ST sequence-gap tracking of this channel.
   std::uint64_t lost_packets() const;
+  // Connections the heartbeat ended (the peer stopped answering), and why the last one was
+  // ended (empty while the connection in place was not ended that way).
+  std::uint64_t heartbeat_drops() const;
+  std::string last_drop_reason() const;
 
   Link& link() { return link_; }
 
@@ -94,6 +112,10 @@ using RobotChannel = Channel<protocol::SerialToDevice, protocol::SerialFromDevic
 // Hub <-> simulator (TCP framing).
 using SimChannel = Channel<protocol::TcpToSim, protocol::TcpFromSim>;
 
-inline ChannelOptions robot_channel_defaults() { return ChannelOptions{kSerialWindowBytes}; }
+inline ChannelOptions robot_channel_defaults() {
+  ChannelOptions o;
+  o.window_bytes = kSerialWindowBytes;
+  return o;
+}
 
 }  // namespace scaratwin::transport

@@ -131,6 +131,11 @@ class Link {
   // The message layer reports a packet it could not decode.
   void add_error();
 
+  // Ends the current connection as failed, as an I/O error would (the layer above found the
+  // peer no longer answering): counted as a disconnect and an error; a TCP client then
+  // reconnects by itself. No effect on a link without a connection, or on a server.
+  void drop();
+
   // Stops all I/O, drops the connection, wakes every waiter. Idempotent.
   void close();
 
