@@ -40,7 +40,16 @@ IoThread::IoThread(std::string name) : impl_(std::make_unique<Impl>()) {
 IoThread::~IoThread() {
   impl_->guard.reset();
   impl_->context.stop();
-  if (impl_->thread.joinable()) impl_->thread.join();
+  if (!impl_->thread.joinable()) return;
+  if (impl_->thread.get_id() == std::this_thread::get_id()) {
+    // the last owner let go from a handler on this very thread (a link whose last reference
+    // a completing handler held): it cannot join itself (std::system_error, EDEADLK, seen
+    // under ThreadSanitizer's timing). The loop returns once this handler does; a helper
+    // joins it, then frees the context it was running.
+    std::thread([impl = std::move(impl_)] { impl->thread.join(); }).detach();
+    return;
+  }
+  impl_->thread.join();
 }
 
 boost::asio::io_context& IoThread::context() { return impl_->context; }

@@ -1,8 +1,14 @@
 // TCP links against each other and against plain POSIX sockets.
+#include <utility>  // before Boost.Asio (Boost 1.74 misses it)
+
 #include "scaratwin/transport/tcp.hpp"
 
 #include <arpa/inet.h>
 #include <gtest/gtest.h>
+
+#include <boost/asio/io_context.hpp>
+#include <boost/asio/post.hpp>
+#include <future>
 #include <netinet/in.h>
 #include <sys/socket.h>
 #include <unistd.h>
@@ -160,6 +166,27 @@ TEST(Tcp, ServerReassemblesBytewiseWritesOfAPlainSocket) {
   ASSERT_TRUE((*server)->send("AK,RS,\n"));
   EXPECT_EQ(read_line(fd), "AK,RS,");
   ::close(fd);
+}
+
+// The last reference to an io thread dropped by a handler running on it (a link's last
+// reference held by a completing handler): it cannot join itself; before, std::thread::join
+// threw (EDEADLK) and the process ended in std::terminate (Tcp.IdleAndWriteTimeoutsDrop...
+// under ThreadSanitizer). The handler waits until the test has let go of its own reference.
+TEST(IoThread, LastReferenceDroppedOnItsOwnThreadDoesNotEndTheProcess) {
+  auto io = IoThread::create("io-self");
+  std::promise<void> released;
+  auto go = released.get_future().share();
+  std::promise<void> ran;
+  auto done = ran.get_future();
+  boost::asio::post(io->context(), [keep = io, go, &ran]() mutable {
+    go.wait();
+    ran.set_value();
+    keep.reset();  // the last reference: ~IoThread on its own thread
+  });
+  io.reset();
+  released.set_value();
+  ASSERT_EQ(done.wait_for(5s), std::future_status::ready);
+  std::this_thread::sleep_for(100ms);  // the helper joins and frees it
 }
 
 TEST(Tcp, PacketHandlerRunsOnTheIoThreadAndCanReply) {
