@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
 # Installs the Debian 12 packages scaratwin needs (build, tests, firmware, emulator, UI tests,
-# the Python package, the companion dialects' Octave tests).
+# the Python package, the companion dialects' Octave tests, the fleet over MQTT).
 # Safe to run again: apt-get skips what is already installed. Needs root (or sudo).
 set -euo pipefail
 
@@ -17,6 +17,7 @@ packages=(
   pybind11-dev python3-dev python3-numpy python3-pytest python3-pandas python3-matplotlib
   jupyter-nbconvert python3-ipykernel
   octave octave-instrument-control
+  libmosquitto-dev mosquitto mosquitto-clients
 )
 
 missing=()

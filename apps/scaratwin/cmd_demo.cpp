@@ -32,9 +32,11 @@
 #include "demo_figures.hpp"
 #include "demo_ticker.hpp"
 #include "emulator_side.hpp"
+#include "hub_session.hpp"
 #include "rig.hpp"
 #include "scaratwin/config/robot_config.hpp"
 #include "scaratwin/core/units.hpp"
+#include "scaratwin/fleet/topics.hpp"
 #include "scaratwin/hub/analysis.hpp"
 #include "scaratwin/hub/hub.hpp"
 #include "scaratwin/hub/process.hpp"
@@ -59,6 +61,7 @@ struct DemoArgs {
   double mirror_s = 6.0;
   bool calibrate = true;
   long long as_built_seed = -1;  // the emulated robot's build (-1: the description's)
+  std::string mqtt;              // publish the demo's state on this broker (docs/fleet.md)
   // set by run_demo
   std::string base_config;
   std::filesystem::path out_dir;
@@ -478,6 +481,12 @@ int run_demo(const CommonOptions& common, const DemoArgs& a) {
     return kExitUsage;
   }
   const fs::path out = fs::absolute(a.out);
+  if (!a.mqtt.empty()) {
+    if (auto b = fleet::parse_broker_url(a.mqtt); !b) {
+      std::fprintf(stderr, "scaratwin demo: %s\n", b.error().message.c_str());
+      return kExitUsage;
+    }
+  }
   std::signal(SIGINT, on_interrupt);
   std::signal(SIGTERM, on_interrupt);
   fmt::print("scaratwin demo: results in {}\n", out.string());
@@ -512,6 +521,15 @@ int run_demo(const CommonOptions& common, const DemoArgs& a) {
   if (!hub) {
     std::fprintf(stderr, "scaratwin demo: %s\n", hub.error().message.c_str());
     return kExitFailure;
+  }
+  std::shared_ptr<void> fleet;
+  if (!a.mqtt.empty()) {
+    auto f = start_demo_fleet(a.mqtt, "", **hub);
+    if (!f) {
+      std::fprintf(stderr, "scaratwin demo: %s\n", f.error().message.c_str());
+      return kExitUsage;
+    }
+    fleet = std::move(*f);
   }
   auto demo = (*db)->begin_run("demo", a.serial.empty() ? "emulated robot" : a.serial);
   if (!demo) {
@@ -565,6 +583,7 @@ int run_demo(const CommonOptions& common, const DemoArgs& a) {
     std::fflush(stdout);
     while (!g_interrupted) std::this_thread::sleep_for(200ms);
   }
+  fleet.reset();
   hub->reset();
   rig.stop();
   return ok ? kExitOk : kExitFailure;
@@ -601,6 +620,10 @@ void add_demo_command(CLI::App& app, CommonOptions& common, Runner& run) {
   cmd->add_option("--as-built-seed", a->as_built_seed,
                   "emulated robot: the seed of its build (default: the description's)")
       ->check(CLI::Range(0LL, 2147483647LL));
+  cmd->add_option(
+      "--mqtt", a->mqtt,
+      "publish the robot's state on this MQTT broker, mqtt://[USER[:PASSWORD]@]HOST[:PORT] "
+      "(docs/fleet.md)");
   add_common_options(*cmd, common, false);
   cmd->callback([&common, &run, a] { run = [&common, a] { return run_demo(common, *a); }; });
 }

@@ -16,20 +16,13 @@
 #include <fmt/format.h>
 
 #include "commands.hpp"
+#include "hub_session.hpp"
 #include "scaratwin/hub/hub.hpp"
 #include "scaratwin/hub/process.hpp"
 #include "scaratwin/hub/runner.hpp"
 
 namespace scaratwin::cli {
 namespace {
-
-struct LinkArgs {
-  std::string serial;
-  std::string sim = "127.0.0.1:55016";
-  std::string sim_token;
-  std::string db = "scaratwin-out/twin.db";
-  bool no_db = false;
-};
 
 struct StatementArgs {
   std::string name;
@@ -87,6 +80,8 @@ class InterruptWatcher {
   std::atomic<bool> fired_{false};
   std::thread thread_;
 };
+
+}  // namespace
 
 void add_link_options(CLI::App& cmd, LinkArgs& l) {
   cmd.add_option("--serial", l.serial,
@@ -162,6 +157,8 @@ int with_hub(const CommonOptions& common, const LinkArgs& l, const std::string& 
   }
   return kExitOk;
 }
+
+namespace {
 
 void print_result(const Statement& st, const std::string& result) {
   if (st.line > 0) {

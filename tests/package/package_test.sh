@@ -109,6 +109,8 @@ check_depends "$emu_deb" emu.root /usr/bin/scaratwin-robot
 for pkg in libegl-mesa0 libgl1-mesa-dri; do # loaded by libglvnd at run time, not linked
   dpkg-deb -f "$main_deb" Depends | grep -q "$pkg" || fail "scaratwin does not depend on $pkg"
 done
+dpkg-deb -f "$main_deb" Depends | grep -q libmosquitto1 ||
+  fail "scaratwin does not depend on libmosquitto1 (the hub's --mqtt)"
 dpkg-deb -f "$emu_deb" Depends | grep -q "scaratwin (= $version)" ||
   fail "scaratwin-emulator does not depend on its scaratwin"
 

@@ -1,0 +1,243 @@
+// `scaratwin hub`: a long-running hub. It holds the robot and the simulator links, mirrors
+// and records continuously, and with --mqtt URL joins the fleet on a message broker
+// (docs/fleet.md): it publishes its robot's state and runs the statements that arrive on its
+// own command topic, one at a time, with the CLI's checks, answering each on the reply topic.
+#include <chrono>
+#include <condition_variable>
+#include <cstdio>
+#include <deque>
+#include <memory>
+#include <mutex>
+#include <optional>
+
+#include <fmt/format.h>
+
+#include "commands.hpp"
+#include "hub_session.hpp"
+#include "scaratwin/fleet/hub_state.hpp"
+#include "scaratwin/fleet/mqtt_bridge.hpp"
+#include "scaratwin/fleet/topics.hpp"
+
+namespace scaratwin::cli {
+namespace {
+
+struct HubArgs {
+  std::string mqtt;
+  std::string name;
+  double state_hz = 10.0;
+  int queue = 8;
+};
+
+void say(const std::string& line) {
+  fmt::print("{}\n", line);
+  std::fflush(stdout);
+}
+
+// The commands that arrived and the one being run. The bridge's thread adds; the hub's
+// thread takes and runs.
+class Jobs {
+ public:
+  explicit Jobs(std::size_t capacity) : capacity_(capacity) {}
+
+  // false: the queue is full (the command is refused).
+  bool add(fleet::Command c) {
+    std::lock_guard<std::mutex> lock(mu_);
+    if (queue_.size() >= capacity_) return false;
+    queue_.push_back(std::move(c));
+    cv_.notify_all();
+    return true;
+  }
+  // `stop` goes before everything that waits; whatever runs is interrupted by the caller.
+  void add_stop(fleet::Command c) {
+    std::lock_guard<std::mutex> lock(mu_);
+    queue_.push_front(std::move(c));
+    stop_pending_ = true;
+    cv_.notify_all();
+  }
+  bool busy() const {
+    std::lock_guard<std::mutex> lock(mu_);
+    return status_.running;
+  }
+  // The next command, or nothing after `wait`.
+  std::optional<fleet::Command> take(std::chrono::milliseconds wait) {
+    std::unique_lock<std::mutex> lock(mu_);
+    if (!cv_.wait_for(lock, wait, [this] { return !queue_.empty(); })) return std::nullopt;
+    fleet::Command c = std::move(queue_.front());
+    queue_.pop_front();
+    status_.id_json = c.id_json;
+    status_.statement = c.statement;
+    status_.running = true;
+    status_.elapsed_s = 0.0;
+    started_ = std::chrono::steady_clock::now();
+    return c;
+  }
+  void finished(bool ok) {
+    std::lock_guard<std::mutex> lock(mu_);
+    status_.running = false;
+    status_.elapsed_s = seconds_since_start();
+    ++(ok ? status_.done : status_.failed);
+  }
+  // A stop was asked for (the hub was interrupted on its behalf): true once.
+  bool take_stop_pending() {
+    std::lock_guard<std::mutex> lock(mu_);
+    return std::exchange(stop_pending_, false);
+  }
+  fleet::JobStatus status() const {
+    std::lock_guard<std::mutex> lock(mu_);
+    fleet::JobStatus s = status_;
+    s.queued = queue_.size();
+    if (s.running) s.elapsed_s = seconds_since_start();
+    return s;
+  }
+
+ private:
+  double seconds_since_start() const {
+    return std::chrono::duration<double>(std::chrono::steady_clock::now() - started_).count();
+  }
+
+  std::size_t capacity_;
+  mutable std::mutex mu_;
+  std::condition_variable cv_;
+  std::deque<fleet::Command> queue_;
+  fleet::JobStatus status_;
+  std::chrono::steady_clock::time_point started_{};
+  bool stop_pending_ = false;
+};
+
+bool is_stop(const std::string& statement) {
+  const size_t b = statement.find_first_not_of(" \t");
+  if (b == std::string::npos) return false;
+  const size_t e = statement.find_first_of(" \t", b);
+  return statement.substr(b, e == std::string::npos ? e : e - b) == "stop";
+}
+
+Status serve(Hub& hub, const HubArgs& a, const std::optional<fleet::BrokerAddress>& broker) {
+  Jobs jobs(static_cast<std::size_t>(a.queue));
+  std::unique_ptr<fleet::MqttBridge> bridge;
+  if (broker) {
+    fleet::BridgeOptions bo;
+    bo.broker = *broker;
+    bo.robot = a.name;
+    fleet::MqttBridge* raw = nullptr;
+    auto handler = [&hub, &jobs, &raw, &a](const fleet::Command& c) {
+      if (is_stop(c.statement)) {
+        // stop acts at once, as `scaratwin stop` does beside a running hub: the command in
+        // progress is interrupted (and fails), then the stop runs
+        jobs.add_stop(c);
+        if (jobs.busy()) hub.interrupt();
+        return;
+      }
+      if (!jobs.add(c)) {
+        raw->reply(fleet::reply_error(
+            c.id_json, Error{fleet::kBusy, fmt::format("robot '{}' is busy: {} commands already "
+                                                       "wait (--queue); nothing was done",
+                                                       a.name, a.queue)}));
+      }
+    };
+    auto b = fleet::MqttBridge::start(bo, handler, say);
+    if (!b) return b.error();
+    bridge = std::move(*b);
+    raw = bridge.get();
+  }
+  std::optional<fleet::StatePublisher> publisher;
+  if (bridge)
+    publisher.emplace(*bridge, hub, a.name, a.state_hz, [&jobs] { return jobs.status(); });
+  say(fmt::format("scaratwin hub: robot '{}' ready{}; Ctrl-C to stop", a.name,
+                  broker ? fmt::format(", fleet on mqtt://{}:{} under {}/{}/", broker->host,
+                                       broker->port, fleet::kTopicPrefix, a.name)
+                         : std::string()));
+  for (;;) {
+    if (hub.interrupted() && !jobs.take_stop_pending()) {
+      return Error{130, "interrupted"};
+    }
+    auto c = jobs.take(std::chrono::milliseconds(100));
+    if (!c) continue;
+    if (is_stop(c->statement)) {
+      (void)jobs.take_stop_pending();
+      hub.clear_interrupt();
+    }
+    auto r = fleet::run_statement_text(hub, c->statement);
+    // a stop that arrived during this command interrupted it: the stop runs next
+    if (hub.interrupted() && jobs.take_stop_pending()) hub.clear_interrupt();
+    jobs.finished(r.ok());
+    say(fmt::format("command {} '{}': {}", c->id_json, c->statement,
+                    r ? *r : "refused: " + r.error().message));
+    if (bridge) {
+      bridge->reply(r ? fleet::reply_ok(c->id_json, *r)
+                      : fleet::reply_error(c->id_json, r.error()));
+    }
+  }
+}
+
+int run_hub(const CommonOptions& common, const LinkArgs& l, HubArgs a) {
+  auto model = load_model(common);
+  if (!model) return kExitUsage;
+  if (a.name.empty()) a.name = model->name;
+  if (Status s = fleet::check_robot_name(a.name); !s) {
+    std::fprintf(stderr, "scaratwin hub: --name: %s\n", s.error().message.c_str());
+    return kExitUsage;
+  }
+  std::optional<fleet::BrokerAddress> broker;
+  if (!a.mqtt.empty()) {
+    auto b = fleet::parse_broker_url(a.mqtt);
+    if (!b) {
+      std::fprintf(stderr, "scaratwin hub: %s\n", b.error().message.c_str());
+      return kExitUsage;
+    }
+    broker = *b;
+  }
+  return with_hub(common, l, "hub", a.name, [&](Hub& hub) { return serve(hub, a, broker); });
+}
+
+}  // namespace
+
+Result<std::shared_ptr<void>> start_demo_fleet(const std::string& url, const std::string& name,
+                                               const Hub& hub) {
+  auto broker = fleet::parse_broker_url(url);
+  if (!broker) return broker.error();
+  fleet::BridgeOptions bo;
+  bo.broker = *broker;
+  bo.robot = name.empty() ? hub.model().name : name;
+  bo.accept_commands = false;
+  auto b = fleet::MqttBridge::start(bo, nullptr, say);
+  if (!b) return b.error();
+  struct DemoFleet {
+    std::unique_ptr<fleet::MqttBridge> bridge;
+    std::optional<fleet::StatePublisher> publisher;
+  };
+  auto f = std::make_shared<DemoFleet>();
+  f->bridge = std::move(*b);
+  f->publisher.emplace(*f->bridge, hub, bo.robot, 10.0, [] {
+    fleet::JobStatus j;
+    j.statement = "demo";
+    j.running = true;
+    return j;
+  });
+  return std::shared_ptr<void>(f);
+}
+
+void add_hub_command(CLI::App& app, CommonOptions& common, Runner& run) {
+  auto links = std::make_shared<LinkArgs>();
+  auto a = std::make_shared<HubArgs>();
+  CLI::App* cmd = app.add_subcommand(
+      "hub",
+      "run the hub until Ctrl-C: mirror and record continuously; with --mqtt publish the "
+      "robot's state and take statements on the fleet's topics (docs/fleet.md)");
+  cmd->add_option("--mqtt", a->mqtt,
+                  "MQTT broker to join, mqtt://[USER[:PASSWORD]@]HOST[:PORT] (port 1883)");
+  cmd->add_option("--name", a->name,
+                  "the robot's name in the topics (default: the description's robot name)");
+  cmd->add_option("--state-hz", a->state_hz, "state messages per second")
+      ->check(CLI::Range(0.1, 100.0))
+      ->capture_default_str();
+  cmd->add_option("--queue", a->queue, "commands that may wait behind the running one")
+      ->check(CLI::Range(1, 1000))
+      ->capture_default_str();
+  add_link_options(*cmd, *links);
+  add_common_options(*cmd, common, false);
+  cmd->callback([&common, &run, links, a] {
+    run = [&common, links, a] { return run_hub(common, *links, *a); };
+  });
+}
+
+}  // namespace scaratwin::cli

@@ -1,0 +1,38 @@
+// The links of the commands that hold a hub (the statements, `run`, `hub`): their options,
+// and one hub session from connect to the end of its run, with Ctrl-C handling.
+#pragma once
+
+#include <functional>
+#include <memory>
+#include <string>
+
+#include "commands.hpp"
+#include "scaratwin/hub/hub.hpp"
+
+namespace scaratwin::cli {
+
+struct LinkArgs {
+  std::string serial;
+  std::string sim = "127.0.0.1:55016";
+  std::string sim_token;
+  std::string db = "scaratwin-out/twin.db";
+  bool no_db = false;
+};
+
+// Adds --serial, --sim, --sim-token, --db and --no-db.
+void add_link_options(CLI::App& cmd, LinkArgs& l);
+
+// Connects a hub to the robot and the simulator, begins a run (`kind`, `label`) in the twin
+// database, mirrors, runs `body` and ends the run. Ctrl-C (or SIGTERM) interrupts the hub
+// (Hub::interrupt()) and a second one ends the process. Returns the exit status; a failing
+// body's error is printed as "scaratwin <kind>: <message>".
+int with_hub(const CommonOptions& common, const LinkArgs& l, const std::string& kind,
+             const std::string& label, const std::function<Status(Hub&)>& body);
+
+// `scaratwin demo --mqtt URL`: the demo's robot on the fleet's topics (its state, published
+// until the returned handle goes; commands are answered "takes no commands"). `name` empty:
+// the description's robot name.
+Result<std::shared_ptr<void>> start_demo_fleet(const std::string& url, const std::string& name,
+                                               const Hub& hub);
+
+}  // namespace scaratwin::cli

@@ -1,0 +1,289 @@
+// The fleet end to end (docs/fleet.md): a real Mosquitto on a free loopback port, the real
+// `scaratwin hub` holding the emulated robot (the firmware in simavr, --plant ideal) and the
+// simulator, and an MQTT client in the test. Judged by what the broker carries and by the
+// emulator's truth channel (the motor positions from the firmware's STEP/DIR pins).
+#include <signal.h>
+
+#include <chrono>
+#include <cstdint>
+#include <filesystem>
+#include <sstream>
+#include <thread>
+
+#include <fmt/format.h>
+#include <gtest/gtest.h>
+#include <nlohmann/json.hpp>
+
+#include "mqtt_peer.hpp"
+#include "scaratwin/hub/process.hpp"
+
+namespace scaratwin {
+namespace {
+
+namespace fs = std::filesystem;
+using namespace std::chrono_literals;
+using nlohmann::json;
+using test::Message;
+using test::Peer;
+
+const fs::path kBin = SCARATWIN_BIN_DIR;
+const fs::path kBroker = SCARATWIN_MOSQUITTO;
+constexpr double kZStepsPerM = 205560.0;
+
+fs::path fresh_dir(const char* name) {
+  fs::path p = fs::temp_directory_path() / fmt::format("scaratwin-{}-{}", name, getpid());
+  fs::remove_all(p);
+  fs::create_directories(p);
+  return p;
+}
+
+// The emulator's side channel: "query" answers a TR line of the true motor positions.
+class Truth {
+ public:
+  explicit Truth(int port) : port_(port) {}
+  std::int64_t get(const std::string& key) {
+    const int fd = ::socket(AF_INET, SOCK_STREAM, 0);
+    sockaddr_in addr{};
+    addr.sin_family = AF_INET;
+    addr.sin_port = htons(static_cast<std::uint16_t>(port_));
+    addr.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
+    if (::connect(fd, reinterpret_cast<sockaddr*>(&addr), sizeof addr) != 0) {
+      ::close(fd);
+      return INT64_MIN;
+    }
+    timeval tv{2, 0};
+    ::setsockopt(fd, SOL_SOCKET, SO_RCVTIMEO, &tv, sizeof tv);
+    const std::string q = "rate 0\nquery\n";
+    (void)::send(fd, q.data(), q.size(), MSG_NOSIGNAL);
+    std::string in;
+    char buf[1024];
+    while (in.find("TR ") == std::string::npos ||
+           in.find('\n', in.find("TR ")) == std::string::npos) {
+      const ssize_t n = ::recv(fd, buf, sizeof buf, 0);
+      if (n <= 0) break;
+      in.append(buf, static_cast<std::size_t>(n));
+    }
+    ::close(fd);
+    const size_t tr = in.find("TR ");
+    if (tr == std::string::npos) return INT64_MIN;
+    std::istringstream line(in.substr(tr, in.find('\n', tr) - tr));
+    std::string tok;
+    while (line >> tok) {
+      if (tok.rfind(key + "=", 0) == 0) return std::stoll(tok.substr(key.size() + 1));
+    }
+    return INT64_MIN;
+  }
+  std::array<std::int64_t, 3> motors() { return {get("z"), get("j2"), get("j3")}; }
+
+ private:
+  int port_;
+};
+
+struct Rig {
+  fs::path dir, pty;
+  std::unique_ptr<ChildProcess> robot, sim, broker, hub;
+  std::string sim_port;
+  int side_port = 0;
+  int broker_port = 0;
+
+  void start(const fs::path& d) {
+    dir = d;
+    pty = dir / "robot.pty";
+    auto r =
+        ChildProcess::start(kBin / "scaratwin-robot",
+                            {"--pty-link", pty.string(), "--plant", "ideal"}, dir / "robot.log");
+    ASSERT_TRUE(r) << r.error().message;
+    robot = std::move(*r);
+    auto s =
+        ChildProcess::start(kBin / "scaratwin-sim",
+                            {"--port", "0", "--http-port", "0", "--no-camera"}, dir / "sim.log");
+    ASSERT_TRUE(s) << s.error().message;
+    sim = std::move(*s);
+    auto side = robot->wait_for_line("side channel: ", 60s);
+    ASSERT_TRUE(side) << side.error().message;
+    side_port = std::stoi(side->substr(side->rfind(':') + 1));
+    auto listening = sim->wait_for_line("listening on", 60s);
+    ASSERT_TRUE(listening) << listening.error().message;
+    const size_t paren = listening->find(" (");
+    const size_t colon = listening->rfind(':', paren);
+    sim_port = listening->substr(colon + 1, paren - colon - 1);
+    broker_port = test::free_loopback_port();
+  }
+  std::vector<std::string> links() const {
+    return {"--serial", pty.string(),
+            "--sim",    "127.0.0.1:" + sim_port,
+            "--db",     (dir / "twin.db").string()};
+  }
+  void start_hub(const std::string& name) {
+    std::vector<std::string> args{
+        "hub",        "--mqtt", fmt::format("mqtt://127.0.0.1:{}", broker_port), "--name", name,
+        "--state-hz", "20"};
+    for (const std::string& a : links()) args.push_back(a);
+    auto h = ChildProcess::start(kBin / "scaratwin", args, dir / "hub.log");
+    ASSERT_TRUE(h) << h.error().message;
+    hub = std::move(*h);
+    auto ready = hub->wait_for_line("scaratwin hub: robot '" + name + "' ready", 60s);
+    ASSERT_TRUE(ready) << ready.error().message;
+  }
+};
+
+json parse(const Message& m) { return json::parse(m.payload, nullptr, false); }
+
+// Sends a command and waits for its reply.
+json command(Peer& peer, const std::string& robot, const std::string& id,
+             const std::string& statement, std::chrono::seconds timeout = 120s) {
+  const std::size_t mark = peer.count();
+  EXPECT_TRUE(peer.publish(fmt::format("scaratwin/v1/{}/command", robot),
+                           json{{"id", id}, {"statement", statement}}.dump()));
+  auto r = peer.wait(
+      fmt::format("scaratwin/v1/{}/reply", robot),
+      [&](const Message& m) { return parse(m).value("id", json()) == id; }, timeout, mark);
+  return r ? parse(*r) : json();
+}
+
+// The whole life of a hub on a broker, in one run (each start of the emulated robot costs
+// seconds): the broker down at start, then up; state; a command that moves the robot; a
+// refused one; malformed payloads; another robot's topic; the last will when killed.
+TEST(FleetHub, ServesItsRobotOnTheBrokerAndOnlyIts) {
+  Rig rig;
+  ASSERT_NO_FATAL_FAILURE(rig.start(fresh_dir("fleet")));
+  Truth truth(rig.side_port);
+
+  // the CLI's own answer to a target out of reach: the oracle for the refusal over MQTT
+  std::string cli_error;
+  {
+    std::vector<std::string> args{"move", "0.5", "0", "0.05"};
+    for (const std::string& a : rig.links()) args.push_back(a);
+    auto cli = ChildProcess::start(kBin / "scaratwin", args, rig.dir / "cli.log");
+    ASSERT_TRUE(cli);
+    ASSERT_EQ((*cli)->wait_exit(60s), 1) << (*cli)->output_tail();
+    auto line = (*cli)->wait_for_line("scaratwin move: ", 1s);
+    ASSERT_TRUE(line) << (*cli)->output_tail();
+    cli_error = line->substr(std::string("scaratwin move: ").size());
+  }
+
+  // and to a statement that does not parse (refused before any link is opened)
+  std::string cli_parse_error;
+  {
+    auto cli = ChildProcess::start(kBin / "scaratwin", {"move", "0.2", "0"}, rig.dir / "cli2.log");
+    ASSERT_TRUE(cli);
+    ASSERT_EQ((*cli)->wait_exit(60s), 2) << (*cli)->output_tail();
+    auto line = (*cli)->wait_for_line("scaratwin move: ", 1s);
+    ASSERT_TRUE(line) << (*cli)->output_tail();
+    cli_parse_error = line->substr(std::string("scaratwin move: ").size());
+  }
+
+  // the broker is down when the hub starts: the twin runs on, and the bridge says so
+  ASSERT_NO_FATAL_FAILURE(rig.start_hub("r1"));
+  auto down =
+      rig.hub->wait_for_line(fmt::format("broker mqtt://127.0.0.1:{}: ", rig.broker_port), 20s);
+  ASSERT_TRUE(down) << rig.hub->output_tail();
+  EXPECT_NE(down->find("retrying"), std::string::npos) << *down;
+
+  // it comes up: the hub connects by itself, announces itself (retained) and publishes state
+  auto broker = test::start_broker(kBroker, rig.dir, rig.broker_port);
+  ASSERT_TRUE(broker) << broker.error().message;
+  rig.broker = std::move(*broker);
+  Peer peer(rig.broker_port, "scaratwin/v1/#");
+  ASSERT_TRUE(peer.ok());
+  auto online = peer.wait(
+      "scaratwin/v1/r1/connection", [](const Message& m) { return m.payload == "online"; }, 30s);
+  ASSERT_TRUE(online) << rig.hub->output_tail();
+  auto state = peer.wait(
+      "scaratwin/v1/r1/state",
+      [](const Message& m) { return parse(m).value("link", json())["robot"] == true; }, 10s);
+  ASSERT_TRUE(state) << rig.hub->output_tail();
+  const json s0 = parse(*state);
+  EXPECT_EQ(s0["robot"], "r1");
+  EXPECT_EQ(s0["mode"], "not-homed");
+  EXPECT_TRUE(s0["joints"]["d1_m"].is_number()) << s0.dump();
+  EXPECT_EQ(s0["link"]["sim"], true);
+  EXPECT_EQ(s0["job"]["running"], false);
+
+  // a command moves the robot: judged by the truth, not by the hub's word
+  const json home = command(peer, "r1", "h1", "home");
+  ASSERT_EQ(home.value("ok", false), true) << home.dump() << rig.hub->output_tail();
+  EXPECT_EQ(home["result"], "homed");
+  auto homed = peer.wait(
+      "scaratwin/v1/r1/state",
+      [](const Message& m) {
+        const json j = parse(m);
+        return j["mode"] == "idle" && std::abs(j["joints"]["d1_m"].get<double>() - 0.12) < 1e-3;
+      },
+      10s);
+  EXPECT_TRUE(homed) << "the state shows the robot homed at d1 = 0.12 m";
+  const json move = command(peer, "r1", "m1", "movej 0.10 0 0 0");
+  ASSERT_EQ(move.value("ok", false), true) << move.dump();
+  EXPECT_NE(move["result"].get<std::string>().find("points"), std::string::npos) << move.dump();
+  EXPECT_NEAR(static_cast<double>(truth.get("z")), 0.10 * kZStepsPerM, 200.0);
+  auto moved = peer.wait(
+      "scaratwin/v1/r1/state",
+      [](const Message& m) {
+        const json j = parse(m);
+        return j["mode"] == "idle" && j["job"]["done"] == 2 &&
+               std::abs(j["joints"]["d1_m"].get<double>() - 0.10) < 1e-3;
+      },
+      10s);
+  EXPECT_TRUE(moved) << "the state shows the move and the job count";
+
+  // refused at the CLI -> refused over MQTT with the same message; nothing moves
+  const auto before = truth.motors();
+  const json refused = command(peer, "r1", "bad", "move 0.5 0 0.05");
+  EXPECT_EQ(refused.value("ok", true), false) << refused.dump();
+  EXPECT_EQ(refused.value("error", ""), cli_error);
+  const json parse_error = command(peer, "r1", "bad2", "move 0.2 0");
+  EXPECT_EQ(parse_error.value("ok", true), false);
+  EXPECT_EQ(parse_error.value("error", ""), cli_parse_error);
+
+  // malformed and oversized payloads: a clear error, nothing run
+  std::size_t mark = peer.count();
+  ASSERT_TRUE(peer.publish("scaratwin/v1/r1/command", "{not json"));
+  auto bad_json = peer.wait(
+      "scaratwin/v1/r1/reply", [](const Message&) { return true; }, 10s, mark);
+  ASSERT_TRUE(bad_json);
+  EXPECT_EQ(parse(*bad_json)["ok"], false);
+  EXPECT_TRUE(parse(*bad_json)["id"].is_null());
+  EXPECT_NE(parse(*bad_json)["error"].get<std::string>().find("not a JSON object"),
+            std::string::npos);
+  mark = peer.count();
+  const std::string oversized =
+      json{{"id", 9}, {"statement", "movej 0.05 0 0 0" + std::string(5000, ' ')}}.dump();
+  ASSERT_TRUE(peer.publish("scaratwin/v1/r1/command", oversized));
+  auto big = peer.wait(
+      "scaratwin/v1/r1/reply", [](const Message&) { return true; }, 10s, mark);
+  ASSERT_TRUE(big);
+  EXPECT_EQ(parse(*big)["error"],
+            fmt::format("command payload of {} bytes: at most 4096 accepted", oversized.size()));
+
+  // another robot's command topic: r1 never acts on it. Then a command to r1: its reply comes
+  // after anything r1 would have said to the other one
+  mark = peer.count();
+  ASSERT_TRUE(peer.publish("scaratwin/v1/r2/command",
+                           json{{"id", "x"}, {"statement", "movej 0.05 0 0 0"}}.dump()));
+  const json after = command(peer, "r1", "w1", "wait 0");
+  EXPECT_EQ(after.value("ok", false), true) << after.dump();
+  for (const Message& m : peer.since(mark)) {
+    EXPECT_NE(m.topic, "scaratwin/v1/r2/reply") << m.payload;
+    if (m.topic == "scaratwin/v1/r1/reply") {
+      EXPECT_NE(parse(m)["id"], "x") << m.payload;
+    }
+  }
+  EXPECT_EQ(truth.motors(), before) << "nothing moved on a refused or foreign command";
+
+  // killed (no goodbye): the broker publishes the last will, retained
+  mark = peer.count();
+  ASSERT_EQ(::kill(rig.hub->pid(), SIGKILL), 0);
+  (void)rig.hub->wait_exit(10s);
+  auto offline = peer.wait(
+      "scaratwin/v1/r1/connection", [](const Message& m) { return m.payload == "offline"; }, 20s,
+      mark);
+  ASSERT_TRUE(offline) << "the last will reads offline";
+  Peer late(rig.broker_port, "scaratwin/v1/r1/connection");
+  auto retained = late.wait(
+      "scaratwin/v1/r1/connection", [](const Message& m) { return m.retain; }, 10s);
+  ASSERT_TRUE(retained);
+  EXPECT_EQ(retained->payload, "offline") << "a dashboard that comes later reads offline too";
+}
+
+}  // namespace
+}  // namespace scaratwin

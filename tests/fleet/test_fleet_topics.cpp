@@ -1,0 +1,101 @@
+// The fleet's topic layout and payloads (fleet/topics.hpp): names, broker addresses and the
+// command checks that stand between a broker and the robot.
+#include <gtest/gtest.h>
+#include <nlohmann/json.hpp>
+
+#include "scaratwin/fleet/topics.hpp"
+
+namespace scaratwin::fleet {
+namespace {
+
+using nlohmann::json;
+
+TEST(FleetTopics, OneVersionedSubtreePerRobot) {
+  const RobotTopics t = robot_topics("cell-3.left");
+  EXPECT_EQ(t.connection, "scaratwin/v1/cell-3.left/connection");
+  EXPECT_EQ(t.state, "scaratwin/v1/cell-3.left/state");
+  EXPECT_EQ(t.command, "scaratwin/v1/cell-3.left/command");
+  EXPECT_EQ(t.reply, "scaratwin/v1/cell-3.left/reply");
+}
+
+TEST(FleetTopics, RobotNamesAreOneTopicLevelWithoutWildcards) {
+  EXPECT_TRUE(check_robot_name("scara_2"));
+  for (const char* bad : {"", "a/b", "a+", "#", "a b"}) {
+    const Status s = check_robot_name(bad);
+    ASSERT_FALSE(s) << bad;
+    EXPECT_EQ(s.error().code, kBadRobotName);
+  }
+  EXPECT_EQ(check_robot_name("a/b").error().message,
+            "robot name 'a/b': '/' is not allowed in a topic level (use letters, digits, '-', "
+            "'_' and '.')");
+  EXPECT_FALSE(check_robot_name(std::string(65, 'a')));
+}
+
+TEST(FleetTopics, BrokerUrls) {
+  auto a = parse_broker_url("mqtt://localhost");
+  ASSERT_TRUE(a);
+  EXPECT_EQ(a->host, "localhost");
+  EXPECT_EQ(a->port, 1883);
+  auto b = parse_broker_url("mqtt://10.0.0.2:18830/");
+  ASSERT_TRUE(b);
+  EXPECT_EQ(b->host, "10.0.0.2");
+  EXPECT_EQ(b->port, 18830);
+  EXPECT_EQ(
+      parse_broker_url("tcp://x:1").error().message,
+      "--mqtt 'tcp://x:1': not an mqtt:// address (expected mqtt://[USER[:PASSWORD]@]HOST[:PORT])");
+  EXPECT_EQ(parse_broker_url("mqtt://x:0").error().message,
+            "--mqtt 'mqtt://x:0': port '0' is not 1..65535 (expected "
+            "mqtt://[USER[:PASSWORD]@]HOST[:PORT])");
+  auto c = parse_broker_url("mqtt://hub:s3cret@rabbit.lab:1884");
+  ASSERT_TRUE(c);
+  EXPECT_EQ(c->username, "hub");
+  EXPECT_EQ(c->password, "s3cret");
+  EXPECT_EQ(c->host, "rabbit.lab");
+  EXPECT_EQ(c->port, 1884);
+  EXPECT_FALSE(parse_broker_url("mqtt://@x"));
+  EXPECT_FALSE(parse_broker_url("mqtt://:1883"));
+  EXPECT_FALSE(parse_broker_url("mqtt://x:99999"));
+  EXPECT_FALSE(parse_broker_url("mqtt://x/path"));
+}
+
+TEST(FleetTopics, CommandsAreCheckedBeforeAnythingRuns) {
+  std::string id;
+  auto c = parse_command(R"({"id": "a1", "statement": "move 0.2 0 0.03"})", "r1", &id);
+  ASSERT_TRUE(c);
+  EXPECT_EQ(c->id_json, "\"a1\"");
+  EXPECT_EQ(c->statement, "move 0.2 0 0.03");
+  EXPECT_TRUE(parse_command(R"({"id": 7, "statement": "home", "robot": "r1"})", "r1", &id));
+  EXPECT_EQ(id, "7");
+
+  const auto refused = [&](std::string_view payload) {
+    auto r = parse_command(payload, "r1", &id);
+    EXPECT_FALSE(r) << payload;
+    return r ? Error{} : r.error();
+  };
+  EXPECT_EQ(refused("[1]").code, kMalformed);
+  EXPECT_EQ(id, "null");
+  EXPECT_EQ(refused("{\"statement\": \"home\"").code, kMalformed);
+  EXPECT_EQ(refused(R"({"statement": "home"})").message,
+            "command payload: \"id\" must be a string or a number");
+  EXPECT_EQ(refused(R"({"id": "q", "statement": 3})").message,
+            "command payload: \"statement\" must be a string");
+  EXPECT_EQ(id, "\"q\"") << "the id read so far goes into the error reply";
+  EXPECT_EQ(refused(R"({"id": 1, "statement": "home\nmove 1 1 1"})").code, kMalformed);
+  const Error wrong = refused(R"({"id": 1, "statement": "home", "robot": "r2"})");
+  EXPECT_EQ(wrong.code, kWrongRobot);
+  EXPECT_EQ(wrong.message, "command for robot \"r2\" on the topic of robot 'r1'");
+  const std::string big = R"({"id": 1, "statement": ")" + std::string(4100, 'x') + "\"}";
+  EXPECT_EQ(refused(big).message,
+            "command payload of " + std::to_string(big.size()) + " bytes: at most 4096 accepted");
+}
+
+TEST(FleetTopics, RepliesEchoTheId) {
+  EXPECT_EQ(json::parse(reply_ok("\"a1\"", "homed")),
+            json({{"id", "a1"}, {"ok", true}, {"result", "homed"}}));
+  EXPECT_EQ(json::parse(reply_error("7", Error{kBusy, "busy"})),
+            json({{"id", 7}, {"ok", false}, {"code", kBusy}, {"error", "busy"}}));
+  EXPECT_EQ(json::parse(reply_error("null", Error{kMalformed, "x"}))["id"], nullptr);
+}
+
+}  // namespace
+}  // namespace scaratwin::fleet
