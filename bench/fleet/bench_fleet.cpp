@@ -7,12 +7,16 @@
 //
 //   bench_fleet [--robots 25,50,100,200] [--hz 50] [--seconds 10] [--threads 2]
 //               [--broker mqtt://HOST:PORT]   (default: start mosquitto on a free port)
+//               [--pin 0|1]   (1: the broker it starts on CPU 0, the robots and the dashboard
+//                              on CPU 1)
 #include <mosquitto.h>
+#include <sched.h>
 #include <sys/resource.h>
 #include <unistd.h>
 
 #include <algorithm>
 #include <atomic>
+#include <cerrno>
 #include <chrono>
 #include <cstdio>
 #include <cstring>
@@ -127,11 +131,6 @@ Row run(const fleet::BrokerAddress& broker, pid_t broker_pid, int robots, double
     if (seq <= d->last_seq[i]) ++d->reordered;
     d->last_seq[i] = seq;
   });
-  std::atomic<bool> subscribed{false};
-  mosquitto_subscribe_callback_set(sub, [](mosquitto*, void* u, int, int, const int*) {
-    static_cast<std::atomic<bool>*>(u)->store(true);
-  });
-  mosquitto_user_data_set(sub, &dash);
   if (mosquitto_connect(sub, broker.host.c_str(), broker.port, 30) != MOSQ_ERR_SUCCESS) {
     std::fprintf(stderr, "bench_fleet: cannot connect to the broker\n");
     std::exit(1);
@@ -186,8 +185,29 @@ Row run(const fleet::BrokerAddress& broker, pid_t broker_pid, int robots, double
   const double wall = duration<double>(steady_clock::now() - t0).count();
   const double cpu_broker = cpu_s_of(broker_pid) - cpu0_broker;
   const double cpu_self = self_cpu_s() - cpu0_self;
-  // drain: whatever has not arrived a second after the last publish is lost
-  std::this_thread::sleep_for(1s);
+  // the robots' sockets may still hold messages the broker has not read yet: hand them over
+  for (int k = 0; k < 3000; ++k) {
+    bool pending = false;
+    for (mosquitto* c : clients) {
+      if (mosquitto_want_write(c)) {
+        pending = true;
+        (void)mosquitto_loop(c, 0, 1);
+      }
+    }
+    if (!pending) break;
+    std::this_thread::sleep_for(10ms);
+  }
+  // drain: whatever has not arrived once nothing came for a second (at most 30 s) is lost
+  for (int waited = 0; waited < 30; ++waited) {
+    std::size_t n0 = 0;
+    {
+      std::lock_guard<std::mutex> lock(dash.mu);
+      n0 = dash.latency_ns.size();
+    }
+    std::this_thread::sleep_for(1s);
+    std::lock_guard<std::mutex> lock(dash.mu);
+    if (dash.latency_ns.size() == n0) break;
+  }
   for (mosquitto* c : clients) {
     mosquitto_disconnect(c);
     mosquitto_destroy(c);
@@ -225,6 +245,7 @@ int main(int argc, char** argv) {
   std::vector<int> sizes{25, 50, 100, 200};
   double hz = 50.0, seconds = 10.0;
   int threads = 2;
+  int pin = 0;
   std::string url;
   for (int i = 1; i + 1 < argc; i += 2) {
     const std::string k = argv[i], v = argv[i + 1];
@@ -238,6 +259,8 @@ int main(int argc, char** argv) {
       seconds = std::stod(v);
     } else if (k == "--threads") {
       threads = std::stoi(v);
+    } else if (k == "--pin") {
+      pin = std::stoi(v);
     } else if (k == "--broker") {
       url = v;
     } else {
@@ -261,6 +284,18 @@ int main(int argc, char** argv) {
     }
     broker = std::move(*b);
     broker_pid = broker->pid();
+    if (pin != 0) {
+      cpu_set_t broker_cpu, bench_cpu;
+      CPU_ZERO(&broker_cpu);
+      CPU_SET(0, &broker_cpu);
+      CPU_ZERO(&bench_cpu);
+      CPU_SET(1, &bench_cpu);
+      if (sched_setaffinity(broker_pid, sizeof broker_cpu, &broker_cpu) != 0 ||
+          sched_setaffinity(0, sizeof bench_cpu, &bench_cpu) != 0) {
+        std::fprintf(stderr, "bench_fleet: --pin: %s\n", std::strerror(errno));
+        return 1;
+      }
+    }
     address.host = "127.0.0.1";
     address.port = static_cast<std::uint16_t>(port);
   } else {
@@ -272,8 +307,9 @@ int main(int argc, char** argv) {
     address = *a;
     broker_pid = 0;
   }
-  fmt::print("fleet load: {} Hz per robot, {} s per size, {} publisher threads, broker {}:{}\n", hz,
-             seconds, threads, address.host, address.port);
+  fmt::print("fleet load: {} Hz per robot, {} s per size, {} publisher threads, broker {}:{}{}\n",
+             hz, seconds, threads, address.host, address.port,
+             pin != 0 ? " (broker pinned to CPU 0, robots and dashboard to CPU 1)" : "");
   fmt::print(
       "| robots | offered msg/s | delivered msg/s | p50 ms | p99 ms | max ms | sent | lost "
       "| broker CPU % | bench CPU % |\n|---|---|---|---|---|---|---|---|---|---|\n");
