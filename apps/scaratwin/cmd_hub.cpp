@@ -118,26 +118,24 @@ Status serve(Hub& hub, const HubArgs& a, const std::optional<fleet::BrokerAddres
     fleet::BridgeOptions bo;
     bo.broker = *broker;
     bo.robot = a.name;
-    fleet::MqttBridge* raw = nullptr;
-    auto handler = [&hub, &jobs, &raw, &a](const fleet::Command& c) {
+    auto handler = [&hub, &jobs, &a](const fleet::Command& c) -> Status {
       if (is_stop(c.statement)) {
         // stop acts at once, as `scaratwin stop` does beside a running hub: the command in
         // progress is interrupted (and fails), then the stop runs
         jobs.add_stop(c);
         if (jobs.busy()) hub.interrupt();
-        return;
+        return Ok{};
       }
       if (!jobs.add(c)) {
-        raw->reply(fleet::reply_error(
-            c.id_json, Error{fleet::kBusy, fmt::format("robot '{}' is busy: {} commands already "
-                                                       "wait (--queue); nothing was done",
-                                                       a.name, a.queue)}));
+        return Error{fleet::kBusy, fmt::format("robot '{}' is busy: {} commands already wait "
+                                               "(--queue); nothing was done",
+                                               a.name, a.queue)};
       }
+      return Ok{};
     };
     auto b = fleet::MqttBridge::start(bo, handler, say);
     if (!b) return b.error();
     bridge = std::move(*b);
-    raw = bridge.get();
   }
   std::optional<fleet::StatePublisher> publisher;
   if (bridge)

@@ -201,8 +201,10 @@ void MqttBridge::on_message(const mosquitto_message& msg) {
       std::lock_guard<std::mutex> lock(mu_);
       ++counters_.commands;
     }
-    if (on_command_) on_command_(*cmd);
-    return;
+    if (!on_command_) return;
+    Status accepted = on_command_(*cmd);
+    if (accepted) return;
+    refusal = accepted.error();
   }
   {
     std::lock_guard<std::mutex> lock(mu_);

@@ -283,6 +283,18 @@ TEST(FleetHub, ServesItsRobotOnTheBrokerAndOnlyIts) {
       "scaratwin/v1/r1/connection", [](const Message& m) { return m.retain; }, 10s);
   ASSERT_TRUE(retained);
   EXPECT_EQ(retained->payload, "offline") << "a dashboard that comes later reads offline too";
+
+  // SIGTERM ends a hub as Ctrl-C does (status 130), and it reads offline (its own goodbye; a
+  // broker cannot tell it from the will, which the closed socket would also fire)
+  ASSERT_NO_FATAL_FAILURE(rig.start_hub("r1"));
+  ASSERT_TRUE(late.wait(
+      "scaratwin/v1/r1/connection", [](const Message& m) { return m.payload == "online"; }, 30s));
+  mark = late.count();
+  ASSERT_EQ(::kill(rig.hub->pid(), SIGTERM), 0);
+  EXPECT_EQ(rig.hub->wait_exit(20s), 130) << rig.hub->output_tail();
+  EXPECT_TRUE(late.wait(
+      "scaratwin/v1/r1/connection", [](const Message& m) { return m.payload == "offline"; }, 10s,
+      mark));
 }
 
 }  // namespace

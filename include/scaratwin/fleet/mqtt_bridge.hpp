@@ -47,8 +47,9 @@ struct BridgeCounters {
 class MqttBridge {
  public:
   // Called on the bridge's thread for each well-formed command; it must not block for long
-  // (queue the work) and answers later with reply().
-  using CommandHandler = std::function<void(const Command&)>;
+  // (queue the work) and answers later with reply(). An error it returns (busy, ...) is
+  // replied at once.
+  using CommandHandler = std::function<Status(const Command&)>;
   // Lines for the user (connected, broker down, retrying, ...).
   using Log = std::function<void(const std::string&)>;
 
