@@ -138,8 +138,9 @@ Status serve(Hub& hub, const HubArgs& a, const std::optional<fleet::BrokerAddres
     bridge = std::move(*b);
   }
   std::optional<fleet::StatePublisher> publisher;
-  if (bridge)
+  if (bridge) {
     publisher.emplace(*bridge, hub, a.name, a.state_hz, [&jobs] { return jobs.status(); });
+  }
   say(fmt::format("scaratwin hub: robot '{}' ready{}; Ctrl-C to stop", a.name,
                   broker ? fmt::format(", fleet on mqtt://{}:{} under {}/{}/", broker->host,
                                        broker->port, fleet::kTopicPrefix, a.name)

@@ -4,6 +4,7 @@
 // emulator's truth channel (the motor positions from the firmware's STEP/DIR pins).
 #include <signal.h>
 
+#include <array>
 #include <chrono>
 #include <cstdint>
 #include <filesystem>
@@ -225,6 +226,30 @@ TEST(FleetHub, ServesItsRobotOnTheBrokerAndOnlyIts) {
       },
       10s);
   EXPECT_TRUE(moved) << "the state shows the move and the job count";
+
+  // stop does not wait its turn: it interrupts the move in progress, which fails, and stops
+  // the robot on its way (judged by the truth)
+  const std::size_t before_long = peer.count();
+  ASSERT_TRUE(peer.publish("scaratwin/v1/r1/command",
+                           json{{"id", "long"}, {"statement", "movej 0.02 0 0 0"}}.dump()));
+  const auto z_at = [&](double d1_m) { return static_cast<std::int64_t>(d1_m * kZStepsPerM); };
+  for (int i = 0; i < 600 && truth.get("z") > z_at(0.10) - 2000; ++i) {
+    std::this_thread::sleep_for(50ms);
+  }
+  ASSERT_LT(truth.get("z"), z_at(0.10) - 2000) << "the long move started";
+  const json stop = command(peer, "r1", "s", "stop");
+  EXPECT_EQ(stop.value("ok", false), true) << stop.dump();
+  auto long_reply = peer.wait(
+      "scaratwin/v1/r1/reply", [](const Message& m) { return parse(m)["id"] == "long"; }, 10s,
+      before_long);
+  ASSERT_TRUE(long_reply);
+  EXPECT_EQ(parse(*long_reply)["ok"], false);
+  EXPECT_NE(parse(*long_reply).value("error", "").find("interrupted"), std::string::npos)
+      << long_reply->payload;
+  const auto z_stop = truth.get("z");
+  std::this_thread::sleep_for(300ms);
+  EXPECT_EQ(truth.get("z"), z_stop) << "the robot is at rest";
+  EXPECT_GT(z_stop, z_at(0.02) + 2000) << "stopped on its way, not at the end of the move";
 
   // refused at the CLI -> refused over MQTT with the same message; nothing moves
   const auto before = truth.motors();
