@@ -115,6 +115,7 @@ Row run(const fleet::BrokerAddress& broker, pid_t broker_pid, int robots, double
   dash.latency_ns.reserve(static_cast<std::size_t>(robots * hz * seconds * 1.1));
 
   mosquitto* sub = mosquitto_new(nullptr, true, &dash);
+  mosquitto_int_option(sub, MOSQ_OPT_TCP_NODELAY, 1);  // as the bridge does (mqtt_bridge.cpp)
   mosquitto_message_callback_set(sub, [](mosquitto*, void* u, const mosquitto_message* m) {
     const std::int64_t t = now_ns();
     auto* d = static_cast<Dashboard*>(u);
@@ -143,6 +144,7 @@ Row run(const fleet::BrokerAddress& broker, pid_t broker_pid, int robots, double
   std::vector<mosquitto*> clients;
   for (int i = 0; i < robots; ++i) {
     mosquitto* c = mosquitto_new(fmt::format("bench-robot-{}", i).c_str(), true, nullptr);
+    mosquitto_int_option(c, MOSQ_OPT_TCP_NODELAY, 1);
     if (mosquitto_connect(c, broker.host.c_str(), broker.port, 30) != MOSQ_ERR_SUCCESS) {
       std::fprintf(stderr, "bench_fleet: robot %d cannot connect\n", i);
       std::exit(1);

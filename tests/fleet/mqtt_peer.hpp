@@ -46,7 +46,7 @@ inline Result<std::unique_ptr<ChildProcess>> start_broker(const std::filesystem:
   {
     std::ofstream c(conf);
     c << fmt::format(
-        "listener {} 127.0.0.1\nallow_anonymous true\npersistence false\n"
+        "listener {} 127.0.0.1\nallow_anonymous true\npersistence false\nset_tcp_nodelay true\n"
         "log_dest stderr\nlog_type error\nlog_type warning\nlog_type notice\n"
         "log_type information\n",
         port);
