@@ -106,6 +106,11 @@ std::string line_chart(const std::string& title, const std::string& x_label,
   const Frame f{x0, x1, y0, y1, width, height};
   std::string out = axes(f, title, x_label, y_label);
   int legend = 0;
+  // the legend sits in the top right corner, as wide as its longest name (about 6.2 px a
+  // character at 11 px sans-serif) so that no name runs past the frame
+  size_t longest = 0;
+  for (const Series& s : series) longest = std::max(longest, s.name.size());
+  const int legend_x = width - kRight - 26 - static_cast<int>(6.2 * static_cast<double>(longest));
   for (const Series& s : series) {
     std::string pts;
     // at most ~2000 points per series keep the file small.
@@ -120,8 +125,7 @@ std::string line_chart(const std::string& title, const std::string& x_label,
     out += fmt::format(
         "<line x1='{0}' y1='{1}' x2='{2}' y2='{1}' stroke='{3}' stroke-width='2'{5}/>"
         "<text x='{4}' y='{6}'>{7}</text>\n",
-        width - kRight - 130, kTop + 10 + 14 * legend, width - kRight - 112, s.color,
-        width - kRight - 108, s.dashed ? " stroke-dasharray='5 3'" : "", kTop + 14 + 14 * legend,
+        legend_x, kTop + 10 + 14 * legend, legend_x + 18, s.color, legend_x + 22, s.dashed ? " stroke-dasharray='5 3'" : "", kTop + 14 + 14 * legend,
         escape(s.name));
     ++legend;
   }
