@@ -9,7 +9,8 @@ cd "$(dirname "$0")/.."
 build=build/coverage
 jobs=$(nproc)
 # the unit tests of the modules measured (the end-to-end suites need the sanitizer build)
-tests=(test_core test_protocol test_calibration test_plant test_vision test_webcam test_firmware)
+tests=(test_core test_protocol test_calibration test_plant test_vision test_webcam test_firmware
+  test_fleet_topics)
 
 cmake --preset coverage >/dev/null
 cmake --build --preset coverage -j "$jobs" --target "${tests[@]}"
@@ -24,6 +25,7 @@ mkdir -p "$build/report"
 # exceptions' unwinding edges and branches the compiler proves dead are not branches of ours
 gcovr -r . "$build" -j "$jobs" \
   --filter 'src/(kinematics|trajectory|protocol|calibration|config|plant|vision)/' \
+  --filter 'src/fleet/(topics|fleet_watch)\.' \
   --filter 'firmware/src/' \
   --exclude-unreachable-branches --exclude-throw-branches \
   --json-summary "$build/report/summary.json" \

@@ -22,6 +22,7 @@ MODULES = [
     ("config", r"src/config/", None),
     ("plant", r"src/plant/", None),
     ("vision", r"src/vision/", None),
+    ("fleet (topics, watcher)", r"src/fleet/(topics|fleet_watch)\.", None),
 ]
 
 

@@ -12,6 +12,7 @@
 
 #include "scaratwin/config/robot_config.hpp"
 #include "scaratwin/core/units.hpp"
+#include "scaratwin/fleet/fleet_watch.hpp"
 #include "scaratwin/sim/companion.hpp"
 #include "scaratwin/sim/server.hpp"
 #include "scaratwin/sim/world.hpp"
@@ -44,6 +45,7 @@ struct Args {
   std::string web_root;
   std::string token;
   int companion_port = -1;  // -1: off
+  std::string mqtt;         // the fleet page's broker; empty: no fleet page data
 };
 
 // 127.0.0.0/8 and ::1: only this machine can connect.
@@ -123,6 +125,9 @@ int main(int argc, char** argv) {
                  "also serve the paper's companion TCP dialect (its MATLAB/Octave scripts use "
                  "55012) on this port, 0 for any free port (default: off; docs/protocol.md "
                  "section 13)");
+  app.add_option("--mqtt", a.mqtt,
+                 "MQTT broker whose fleet the browser UI's fleet page shows (/fleet.html), "
+                 "mqtt://[USER[:PASSWORD]@]HOST[:PORT] (docs/fleet.md)");
   CLI11_PARSE(app, argc, argv);
 
   auto robot = load_robot_config_or_default(a.config_path);
@@ -219,8 +224,24 @@ int main(int argc, char** argv) {
   if (a.http_port < 0 || a.http_port > 65535) {
     return fail(fmt::format("--http-port {}: expected 0..65535 (0: no UI)", a.http_port));
   }
+  std::unique_ptr<fleet::FleetWatcher> fleet_watch;
+  std::string fleet_broker;  // host:port, never the password
+  if (!a.mqtt.empty()) {
+    auto broker = fleet::parse_broker_url(a.mqtt);
+    if (!broker) return fail(fmt::format("--mqtt: {}", broker.error().message));
+    if (a.http_port == 0) return fail("--mqtt: the fleet page needs the browser UI (--http-port)");
+    auto w = fleet::FleetWatcher::start(*broker, [](const std::string& line) {
+      std::fprintf(stderr, "scaratwin-sim: %s\n", line.c_str());
+    });
+    if (!w) return fail(fmt::format("--mqtt: {}", w.error().message), 1);
+    fleet_watch = std::move(*w);
+    fleet_broker = fmt::format("mqtt://{}:{}", broker->host, broker->port);
+  }
   if (a.http_port != 0) {
     web::WebOptions wo_web;
+    if (fleet_watch) {
+      wo_web.fleet = [w = fleet_watch.get()] { return w->snapshot_json(); };
+    }
     wo_web.bind_address = a.http_bind;
     wo_web.token = a.token;
     wo_web.port = static_cast<std::uint16_t>(a.http_port);
@@ -264,6 +285,10 @@ int main(int argc, char** argv) {
   if (web_ui) {
     std::printf("scaratwin-sim: browser UI on http://%s:%u/\n", a.http_bind.c_str(),
                 web_ui->port());
+    if (fleet_watch) {
+      std::printf("scaratwin-sim: fleet page on http://%s:%u/fleet.html (broker %s)\n",
+                  a.http_bind.c_str(), web_ui->port(), fleet_broker.c_str());
+    }
   }
   std::fflush(stdout);
 
@@ -290,6 +315,7 @@ int main(int argc, char** argv) {
     }
   }
   web_ui.reset();
+  fleet_watch.reset();
   companion.reset();
   (*server).reset();
   (*world)->stop();

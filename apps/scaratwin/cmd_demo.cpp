@@ -36,6 +36,7 @@
 #include "rig.hpp"
 #include "scaratwin/config/robot_config.hpp"
 #include "scaratwin/core/units.hpp"
+#include "scaratwin/fleet/local_broker.hpp"
 #include "scaratwin/fleet/topics.hpp"
 #include "scaratwin/hub/analysis.hpp"
 #include "scaratwin/hub/hub.hpp"
@@ -62,6 +63,7 @@ struct DemoArgs {
   bool calibrate = true;
   long long as_built_seed = -1;  // the emulated robot's build (-1: the description's)
   std::string mqtt;              // publish the demo's state on this broker (docs/fleet.md)
+  bool mqtt_given = false;       // --mqtt without a URL: start a Mosquitto of our own
   // set by run_demo
   std::string base_config;
   std::filesystem::path out_dir;
@@ -481,8 +483,22 @@ int run_demo(const CommonOptions& common, const DemoArgs& a) {
     return kExitUsage;
   }
   const fs::path out = fs::absolute(a.out);
-  if (!a.mqtt.empty()) {
-    if (auto b = fleet::parse_broker_url(a.mqtt); !b) {
+  // --mqtt with no URL: the demo starts its own broker (Mosquitto on a free loopback port)
+  fleet::LocalBroker own_broker;
+  std::string mqtt = a.mqtt;
+  if (a.mqtt_given && mqtt.empty()) {
+    auto b = fleet::start_local_broker(out / "broker");
+    if (!b) {
+      std::fprintf(stderr, "scaratwin demo: --mqtt: %s\n", b.error().message.c_str());
+      return kExitFailure;
+    }
+    own_broker = std::move(*b);
+    mqtt = own_broker.url;
+    fmt::print("fleet broker: Mosquitto on {} (started by the demo; log in {})\n", mqtt,
+               (out / "broker").string());
+  }
+  if (!mqtt.empty()) {
+    if (auto b = fleet::parse_broker_url(mqtt); !b) {
       std::fprintf(stderr, "scaratwin demo: %s\n", b.error().message.c_str());
       return kExitUsage;
     }
@@ -496,6 +512,7 @@ int run_demo(const CommonOptions& common, const DemoArgs& a) {
   ro.serial = a.serial;
   ro.http_port = a.http_port;
   ro.robot_speed = a.robot_speed;
+  ro.mqtt = mqtt;
   if (a.as_built_seed >= 0) {
     ro.as_built_seed = static_cast<std::uint64_t>(a.as_built_seed);
     // the build the emulator draws (the report compares the calibration with it)
@@ -523,8 +540,8 @@ int run_demo(const CommonOptions& common, const DemoArgs& a) {
     return kExitFailure;
   }
   std::shared_ptr<void> fleet;
-  if (!a.mqtt.empty()) {
-    auto f = start_demo_fleet(a.mqtt, "", **hub);
+  if (!mqtt.empty()) {
+    auto f = start_demo_fleet(mqtt, "", **hub);
     if (!f) {
       std::fprintf(stderr, "scaratwin demo: %s\n", f.error().message.c_str());
       return kExitUsage;
@@ -620,12 +637,18 @@ void add_demo_command(CLI::App& app, CommonOptions& common, Runner& run) {
   cmd->add_option("--as-built-seed", a->as_built_seed,
                   "emulated robot: the seed of its build (default: the description's)")
       ->check(CLI::Range(0LL, 2147483647LL));
-  cmd->add_option(
-      "--mqtt", a->mqtt,
-      "publish the robot's state on this MQTT broker, mqtt://[USER[:PASSWORD]@]HOST[:PORT] "
-      "(docs/fleet.md)");
+  CLI::Option* mqtt =
+      cmd->add_option("--mqtt", a->mqtt,
+                      "publish the robot's state on this MQTT broker, "
+                      "mqtt://[USER[:PASSWORD]@]HOST[:PORT], and show the fleet page "
+                      "(/fleet.html); --mqtt alone starts a Mosquitto of the demo's own "
+                      "(docs/fleet.md)")
+          ->expected(0, 1);
   add_common_options(*cmd, common, false);
-  cmd->callback([&common, &run, a] { run = [&common, a] { return run_demo(common, *a); }; });
+  cmd->callback([&common, &run, a, mqtt] {
+    a->mqtt_given = mqtt->count() > 0;
+    run = [&common, a] { return run_demo(common, *a); };
+  });
 }
 
 }  // namespace scaratwin::cli

@@ -22,6 +22,7 @@ Result<Rig> start_rig(const RigOptions& o, const std::filesystem::path& log_dir)
   // the virtual robot.
   std::vector<std::string> sim_args{"--port", "0", "--http-port", std::to_string(o.http_port)};
   if (!o.config_path.empty()) sim_args.insert(sim_args.end(), {"--config", o.config_path});
+  if (!o.mqtt.empty() && o.http_port != 0) sim_args.insert(sim_args.end(), {"--mqtt", o.mqtt});
   auto sim = ChildProcess::start(sibling_executable("scaratwin-sim"), sim_args, log_dir / "sim.log");
   if (!sim) return sim.error();
   rig.sim = std::move(*sim);
@@ -33,6 +34,13 @@ Result<Rig> start_rig(const RigOptions& o, const std::filesystem::path& log_dir)
     if (auto ui = rig.sim->wait_for_line("http://", 5s); ui) {
       rig.ui_url = ui->substr(ui->find("http://"));
       fmt::print("3D view: {}\n", rig.ui_url);
+    }
+    if (!o.mqtt.empty()) {
+      if (auto fl = rig.sim->wait_for_line("fleet page on ", 5s); fl) {
+        rig.fleet_url = fl->substr(fl->find("http://"));
+        rig.fleet_url = rig.fleet_url.substr(0, rig.fleet_url.find(' '));
+        fmt::print("fleet page: {}\n", rig.fleet_url);
+      }
     }
   }
 

@@ -25,6 +25,7 @@ struct RigOptions {
   std::optional<std::uint64_t> as_built_seed;  // the emulated robot's build
   std::string camera;                          // a real robot's webcam as host:port
   double truth_hz = 200.0;                     // the emulated robot's truth recorder
+  std::string mqtt;  // the broker whose fleet the simulator's fleet page shows (empty: none)
 };
 
 struct Rig {
@@ -34,6 +35,7 @@ struct Rig {
   std::string device;          // the serial device (or the emulator's pty)
   std::string plant = "real";  // real, as-built or ideal
   std::string ui_url;
+  std::string fleet_url;  // the fleet page (with --mqtt)
   std::optional<EmulatorSide> side;
   std::unique_ptr<TruthRecorder> truth;  // as-built emulated robots only
   std::unique_ptr<NetCamera> webcam;

@@ -108,7 +108,7 @@ std::string base64(const std::vector<std::uint8_t>& bytes) {
 }  // namespace
 
 std::string scene_message(const RobotModel& robot, const sim::SceneGeometry& geometry,
-                          double feed_hz) {
+                          double feed_hz, bool fleet) {
   json joints = json::array();
   for (int i = 0; i < kNumJoints; ++i) {
     joints.push_back({{"name", kJointNames[i]},
@@ -140,6 +140,7 @@ std::string scene_message(const RobotModel& robot, const sim::SceneGeometry& geo
               {"version", 1},
               {"robot", robot.name},
               {"feed_hz", feed_hz},
+              {"fleet", fleet},
               {"joints", joints},
               {"bodies", geometry.bodies},
               {"geoms", geoms},

@@ -407,6 +407,15 @@ struct WebServer::Impl {
     if (target == "/api/scene") {
       co_return co_await respond(stream, req, http::status::ok, "application/json", scene);
     }
+    if (target == "/api/fleet") {
+      if (!options.fleet) {
+        co_return co_await respond(
+            stream, req, http::status::not_found, "text/plain",
+            "this simulator watches no fleet: start it with --mqtt mqtt://HOST[:PORT]\n");
+      }
+      co_return co_await respond(stream, req, http::status::ok, "application/json",
+                                 options.fleet());
+    }
     if (target == "/api/state") {
       co_return co_await respond(stream, req, http::status::ok, "application/json",
                                  state_json(true));
@@ -546,7 +555,8 @@ Result<std::unique_ptr<WebServer>> WebServer::create(sim::World& world, const We
   server->impl_ = std::make_shared<Impl>(world, options, std::move(link));
   Impl& impl = *server->impl_;
   impl.root = root;
-  impl.scene = scene_message(world.robot(), world.geometry(), options.feed_hz);
+  impl.scene = scene_message(world.robot(), world.geometry(), options.feed_hz,
+                             static_cast<bool>(options.fleet));
   if (Status st = impl.listen(); !st) return st.error();
   impl.start();
   return server;

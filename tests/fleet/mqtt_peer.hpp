@@ -2,16 +2,11 @@
 // child process) and an MQTT client (libmosquitto) that records every message it sees.
 #pragma once
 
-#include <arpa/inet.h>
 #include <mosquitto.h>
-#include <netinet/in.h>
-#include <sys/socket.h>
-#include <unistd.h>
 
 #include <chrono>
 #include <condition_variable>
 #include <filesystem>
-#include <fstream>
 #include <functional>
 #include <memory>
 #include <mutex>
@@ -21,41 +16,25 @@
 
 #include <fmt/format.h>
 
+#include "scaratwin/fleet/local_broker.hpp"
 #include "scaratwin/hub/process.hpp"
 
 namespace scaratwin::test {
 
 // A loopback port nobody listens on right now.
 inline int free_loopback_port() {
-  const int fd = ::socket(AF_INET, SOCK_STREAM, 0);
-  sockaddr_in addr{};
-  addr.sin_family = AF_INET;
-  addr.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
-  ::bind(fd, reinterpret_cast<sockaddr*>(&addr), sizeof addr);
-  socklen_t len = sizeof addr;
-  ::getsockname(fd, reinterpret_cast<sockaddr*>(&addr), &len);
-  ::close(fd);
-  return ntohs(addr.sin_port);
+  auto p = fleet::free_loopback_port();
+  return p ? *p : 0;
 }
 
-// `mosquitto -c dir/mosquitto.conf` listening on 127.0.0.1:port, anonymous, no persistence.
+// `mosquitto -c dir/mosquitto-PORT.conf` listening on 127.0.0.1:port (the product's own local
+// broker, fleet/local_broker.hpp).
 inline Result<std::unique_ptr<ChildProcess>> start_broker(const std::filesystem::path& exe,
                                                           const std::filesystem::path& dir,
                                                           int port) {
-  const auto conf = dir / fmt::format("mosquitto-{}.conf", port);
-  {
-    std::ofstream c(conf);
-    c << fmt::format(
-        "listener {} 127.0.0.1\nallow_anonymous true\npersistence false\nset_tcp_nodelay true\n"
-        "log_dest stderr\nlog_type error\nlog_type warning\nlog_type notice\n"
-        "log_type information\n",
-        port);
-  }
-  auto b =
-      ChildProcess::start(exe, {"-c", conf.string()}, dir / fmt::format("broker-{}.log", port));
-  if (!b) return b;
-  if (auto l = (*b)->wait_for_line(" running", std::chrono::seconds(20)); !l) return l.error();
-  return b;
+  auto b = fleet::start_local_broker(dir, static_cast<std::uint16_t>(port), exe);
+  if (!b) return b.error();
+  return std::move(b->process);
 }
 
 struct Message {

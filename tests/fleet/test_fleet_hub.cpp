@@ -2,7 +2,11 @@
 // `scaratwin hub` holding the emulated robot (the firmware in simavr, --plant ideal) and the
 // simulator, and an MQTT client in the test. Judged by what the broker carries and by the
 // emulator's truth channel (the motor positions from the firmware's STEP/DIR pins).
+#include <arpa/inet.h>
+#include <netinet/in.h>
 #include <signal.h>
+#include <sys/socket.h>
+#include <unistd.h>
 
 #include <array>
 #include <chrono>

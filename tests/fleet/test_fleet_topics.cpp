@@ -3,6 +3,7 @@
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
 
+#include "scaratwin/fleet/fleet_watch.hpp"
 #include "scaratwin/fleet/topics.hpp"
 
 namespace scaratwin::fleet {
@@ -99,3 +100,59 @@ TEST(FleetTopics, RepliesEchoTheId) {
 
 }  // namespace
 }  // namespace scaratwin::fleet
+
+// The fleet page's watcher: which messages it keeps, without a broker (it is pointed at a
+// port where none listens, so it only retries in the background).
+TEST(FleetWatch, KeepsEachRobotsLastStateAndConnectionAndNothingElse) {
+  using scaratwin::fleet::FleetWatcher;
+  scaratwin::fleet::BrokerAddress nowhere{"127.0.0.1", 1, "", ""};
+  auto w = FleetWatcher::start(nowhere, {});
+  ASSERT_TRUE(w) << w.error().message;
+  FleetWatcher& f = **w;
+  f.on_message("scaratwin/v1/r2/connection", "online");
+  f.on_message("scaratwin/v1/r2/state", R"({"robot": "r2", "seq": 7, "mode": "idle"})");
+  f.on_message("scaratwin/v1/r2/state", R"({"robot": "r2", "seq": 8, "mode": "moving"})");
+  f.on_message("scaratwin/v1/r1/connection", "offline");
+  f.on_message("scaratwin/v1/r1/connection", "gone fishing");  // not a connection word
+  // ignored: another leaf, another prefix, no leaf, a name that is not one topic level
+  f.on_message("scaratwin/v1/r2/reply", R"({"id": 1, "ok": true})");
+  f.on_message("scaratwin/v2/r3/state", R"({"seq": 1})");
+  f.on_message("scaratwin/v1/r4", "online");
+  f.on_message("scaratwin/v1/r#5/state", R"({"seq": 1})");
+  // malformed: not JSON, not an object, larger than the cap
+  f.on_message("scaratwin/v1/r2/state", "{\"seq\": 9");
+  f.on_message("scaratwin/v1/r2/state", "[9]");
+  f.on_message("scaratwin/v1/r2/state",
+               "{\"pad\": \"" + std::string(scaratwin::fleet::kMaxStateBytes, 'x') + "\"}");
+
+  const auto c = f.counters();
+  EXPECT_EQ(c.states, 2u);
+  EXPECT_EQ(c.malformed, 3u);
+  EXPECT_EQ(c.ignored, 4u);
+  const auto snap = nlohmann::json::parse(f.snapshot_json());
+  EXPECT_EQ(snap["broker"], "mqtt://127.0.0.1:1");
+  EXPECT_EQ(snap["connected"], false);
+  ASSERT_EQ(snap["robots"].size(), 2u);
+  EXPECT_EQ(snap["robots"][0]["name"], "r1");  // sorted by name
+  EXPECT_EQ(snap["robots"][0]["connection"], "?");
+  EXPECT_TRUE(snap["robots"][0]["state"].is_null());
+  EXPECT_TRUE(snap["robots"][0]["age_ms"].is_null());
+  EXPECT_EQ(snap["robots"][1]["name"], "r2");
+  EXPECT_EQ(snap["robots"][1]["connection"], "online");
+  EXPECT_EQ(snap["robots"][1]["state"]["seq"], 8);  // the last well-formed state
+  EXPECT_EQ(snap["robots"][1]["state"]["mode"], "moving");
+  EXPECT_EQ(snap["robots"][1]["states"], 2);
+  EXPECT_GE(snap["robots"][1]["age_ms"].get<double>(), 0.0);
+}
+
+TEST(FleetWatch, AStrangerCannotGrowItBeyondItsRobotCap) {
+  using scaratwin::fleet::FleetWatcher;
+  auto w = FleetWatcher::start({"127.0.0.1", 1, "", ""}, {});
+  ASSERT_TRUE(w) << w.error().message;
+  for (std::size_t i = 0; i < scaratwin::fleet::kMaxWatchedRobots + 5; ++i) {
+    (*w)->on_message("scaratwin/v1/r" + std::to_string(i) + "/connection", "online");
+  }
+  EXPECT_EQ((*w)->robots().size(), scaratwin::fleet::kMaxWatchedRobots);
+  EXPECT_EQ((*w)->counters().ignored, 5u);
+  EXPECT_FALSE(FleetWatcher::start({"", 1883, "", ""}, {}));  // no host
+}

@@ -217,6 +217,44 @@ TEST(WebServer, TokenIsNeededForTheSocketAndTheApi) {
   std::filesystem::remove_all(root);
 }
 
+// The fleet page's data: served only by a server given a fleet, behind the same token, and the
+// scene tells the page whether there is one (so it links to the fleet page).
+TEST(WebServer, FleetDataOnlyWithAFleetAndBehindTheToken) {
+  const auto root = std::filesystem::temp_directory_path() /
+                    ("scaratwin-web-fleet-" + std::to_string(::getpid()));
+  std::filesystem::create_directories(root);
+  std::ofstream(root / "index.html") << "page";
+  auto robot = load_robot_config_or_default("");
+  ASSERT_TRUE(robot.ok());
+  sim::WorldOptions wo;
+  wo.camera = false;
+  auto world = sim::World::create(*robot, {}, wo);
+  ASSERT_TRUE(world.ok());
+  WebOptions o;
+  o.port = 0;
+  o.root_dir = root.string();
+  {
+    auto plain = WebServer::create(**world, o);
+    ASSERT_TRUE(plain.ok()) << plain.error().message;
+    const std::string r = get((*plain)->port(), "/api/fleet");
+    EXPECT_EQ(r.rfind("HTTP/1.1 404", 0), 0U) << r;
+    EXPECT_EQ(body_of(r), "this simulator watches no fleet: start it with --mqtt mqtt://HOST[:PORT]\n");
+    EXPECT_EQ(nlohmann::json::parse(body_of(get((*plain)->port(), "/api/scene")))["fleet"], false);
+  }
+  o.token = "t0ken";
+  o.fleet = [] { return std::string(R"({"robots": [{"name": "r1"}]})"); };
+  auto server = WebServer::create(**world, o);
+  ASSERT_TRUE(server.ok()) << server.error().message;
+  const std::uint16_t port = (*server)->port();
+  EXPECT_EQ(get(port, "/api/fleet").rfind("HTTP/1.1 403", 0), 0U);
+  const std::string r = get(port, "/api/fleet?token=t0ken");
+  EXPECT_EQ(r.rfind("HTTP/1.1 200", 0), 0U) << r;
+  EXPECT_EQ(body_of(r), R"({"robots": [{"name": "r1"}]})");
+  EXPECT_EQ(nlohmann::json::parse(body_of(get(port, "/api/scene?token=t0ken")))["fleet"], true);
+  server->reset();
+  std::filesystem::remove_all(root);
+}
+
 // issue 17: a browser that asks for pictures and never reads them made the server queue
 // them without a bound (300 unread pictures: +60 MB). Beyond max_unread_bytes (16 MiB by
 // default; 1 MiB here, some 50 pictures of this empty scene) the connection is cut, and says

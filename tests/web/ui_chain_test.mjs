@@ -9,14 +9,16 @@
 //        --node-modules <dir> [--chromium EXE]
 // Prints one line per check and "N passed, N failed"; exits non-zero on any failure.
 import { createRequire } from 'node:module';
-import { spawn } from 'node:child_process';
 import fs from 'node:fs';
-import net from 'node:net';
 import os from 'node:os';
 import path from 'node:path';
 
-const args = Object.fromEntries(
-  process.argv.slice(2).reduce((acc, v, i, a) => (v.startsWith('--') ? [...acc, [v.slice(2), a[i + 1]]] : acc), []));
+import {
+  Side, check, chromiumArgs, freePort, jointsOfSteps, parseArgs, results, sleep, start as startIn,
+  stop, waitHttp, waitOutput,
+} from './harness.mjs';
+
+const args = parseArgs(process.argv.slice(2));
 const bin = args.bin;
 const nodeModules = args['node-modules'];
 const chromiumPath = args.chromium || '/usr/bin/chromium';
@@ -26,106 +28,7 @@ if (!bin || !nodeModules) {
 }
 const require = createRequire(path.join(path.resolve(nodeModules), 'noop.js'));
 const { chromium } = require('playwright-core');
-
-// the description's motor constants (config/scara.toml), the oracle's own conversion
-const kStepsPerM = 205560.0;
-const kJ2StepsPerRad = 945.0;
-const kJ3StepsPerRad = 1455.0;
-const kCoupling = 0.8;  // J3 motor steps per J2 motor step
-const deg = (rad) => (rad * 180) / Math.PI;
-
-let passed = 0;
-let failed = 0;
-function check(name, ok, detail = '') {
-  if (ok) passed++;
-  else failed++;
-  console.log(`${ok ? 'ok  ' : 'FAIL'} ${name}${detail ? `: ${detail}` : ''}`);
-}
-const sleep = (ms) => new Promise((r) => setTimeout(r, ms));
-
-async function freePort() {
-  return new Promise((resolve, reject) => {
-    const srv = net.createServer();
-    srv.once('error', reject);
-    srv.listen(0, '127.0.0.1', () => {
-      const { port } = srv.address();
-      srv.close(() => resolve(port));
-    });
-  });
-}
-async function waitHttp(port, timeoutMs) {
-  const deadline = Date.now() + timeoutMs;
-  while (Date.now() < deadline) {
-    try {
-      const r = await fetch(`http://127.0.0.1:${port}/api/scene`);
-      if (r.ok) return true;
-    } catch (e) { /* not up yet */ }
-    await sleep(100);
-  }
-  return false;
-}
-
-function start(exe, argv) {
-  const proc = spawn(path.join(bin, exe), argv, { stdio: ['ignore', 'pipe', 'pipe'] });
-  proc.output = '';
-  proc.stdout.on('data', (d) => { proc.output += d; });
-  proc.stderr.on('data', (d) => { proc.output += d; });
-  proc.exited = new Promise((resolve) => proc.on('exit', (code, signal) => resolve(code ?? -1)));
-  return proc;
-}
-async function waitOutput(proc, re, timeoutMs) {
-  const deadline = Date.now() + timeoutMs;
-  while (Date.now() < deadline) {
-    const m = proc.output.match(re);
-    if (m) return m;
-    if (proc.exitCode !== null) return null;
-    await sleep(50);
-  }
-  return null;
-}
-async function stop(proc) {
-  if (!proc || proc.exitCode !== null) return;
-  proc.kill('SIGTERM');
-  const t = setTimeout(() => proc.kill('SIGKILL'), 5000);
-  await proc.exited;
-  clearTimeout(t);
-}
-
-// The emulator's side channel: commands and truth samples (TR lines).
-class Side {
-  constructor(port) { this.port = port; this.rx = ''; }
-  connect() {
-    return new Promise((resolve, reject) => {
-      this.sock = net.connect(this.port, '127.0.0.1', resolve);
-      this.sock.once('error', reject);
-      this.sock.on('data', (d) => { this.rx += d.toString('latin1'); });
-    });
-  }
-  async line(pred, timeoutMs = 10000) {
-    const deadline = Date.now() + timeoutMs;
-    while (Date.now() < deadline) {
-      const nl = this.rx.indexOf('\n');
-      if (nl >= 0) {
-        const l = this.rx.slice(0, nl);
-        this.rx = this.rx.slice(nl + 1);
-        if (pred(l)) return l;
-        continue;
-      }
-      await sleep(10);
-    }
-    return null;
-  }
-  async command(cmd) {
-    this.sock.write(`${cmd}\n`);
-    return this.line((l) => !l.startsWith('TR '));
-  }
-  async truth() {
-    this.sock.write('query\n');
-    const l = await this.line((l) => l.startsWith('TR '));
-    return Object.fromEntries(l.split(' ').slice(1).map((kv) => kv.split('=')));
-  }
-  close() { if (this.sock) this.sock.destroy(); }
-}
+const start = (exe, argv) => startIn(bin, exe, argv);
 
 const dir = fs.mkdtempSync(path.join(os.tmpdir(), 'scaratwin-chain-'));
 const pty = path.join(dir, 'robot.pty');
@@ -158,8 +61,7 @@ try {
   context = await chromium.launchPersistentContext(path.join(dir, 'chromium'), {
     executablePath: chromiumPath,
     headless: true,
-    args: ['--headless', '--no-sandbox', '--disable-gpu', '--disable-quic', '--no-first-run',
-      '--disable-background-networking', '--disable-component-update', '--disable-sync'],
+    args: chromiumArgs,
   });
   const page = context.pages()[0] || await context.newPage();
   await page.goto(`http://127.0.0.1:${httpPort}/`);
@@ -180,7 +82,7 @@ try {
   // where the physical robot is, converted from its true motor steps
   const t = await side.truth();
   const z = Number(t.z), j2 = Number(t.j2), j3 = Number(t.j3);
-  const want = [(z / kStepsPerM) * 1000, deg(j2 / kJ2StepsPerRad), deg((j3 - kCoupling * j2) / kJ3StepsPerRad)];
+  const want = jointsOfSteps(z, j2, j3);
   check('the robot moved', Math.abs(want[1]) > 10 && Math.abs(want[0] - 120) > 1, JSON.stringify(want));
   await sleep(500);
   const shown = (await page.locator('.joint .value').allTextContents()).map(Number);
@@ -207,5 +109,5 @@ try {
   await stop(robot);
   fs.rmSync(dir, { recursive: true, force: true });
 }
-console.log(`${passed} passed, ${failed} failed`);
-process.exit(failed === 0 ? 0 : 1);
+console.log(`${results.passed} passed, ${results.failed} failed`);
+process.exit(results.failed === 0 ? 0 : 1);

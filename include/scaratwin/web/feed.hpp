@@ -40,8 +40,9 @@ enum class WebError : int {
 };
 
 // The "scene" message.
+// `fleet`: this server also serves the fleet page (/fleet.html, /api/fleet).
 std::string scene_message(const RobotModel& robot, const sim::SceneGeometry& geometry,
-                          double feed_hz);
+                          double feed_hz, bool fleet = false);
 
 struct StateExtras {
   bool with_path = false;    // include the tool path (sent every few frames)

@@ -37,6 +37,9 @@ struct WebOptions {
   std::string token;
   // Replies (pictures, ...) a browser leaves unread beyond this are not queued: it is cut.
   std::size_t max_unread_bytes = std::size_t{16} << 20;
+  // The fleet page's data (/api/fleet: JSON, e.g. fleet::FleetWatcher::snapshot_json); empty:
+  // this server watches no fleet and /api/fleet answers 404 saying so.
+  std::function<std::string()> fleet;
 };
 
 // Link figures for the feed; returns an empty status when the simulator has no link data.

@@ -138,6 +138,10 @@ const feed = new Feed(wsUrl, {
   onMessage(msg) {
     if (msg.type === 'scene') {
       sceneMsg = msg;
+      // the fleet page, when this simulator watches a broker (scaratwin-sim --mqtt)
+      const fleetLink = $('fleet-link');
+      if (token) fleetLink.href = `fleet.html?token=${encodeURIComponent(token)}`;
+      fleetLink.hidden = !msg.fleet;
       view.build(msg);
       buildJoints(msg.joints);
     } else if (msg.type === 'state' && sceneMsg) {
