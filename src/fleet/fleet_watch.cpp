@@ -41,9 +41,9 @@ Result<std::unique_ptr<FleetWatcher>> FleetWatcher::start(const BrokerAddress& b
       w->mosq_, [](mosquitto*, void* u, int rc) { self(u)->on_disconnect(rc); });
   mosquitto_message_callback_set(w->mosq_, [](mosquitto*, void* u, const mosquitto_message* m) {
     if (m == nullptr || m->topic == nullptr) return;
-    self(u)->on_message(
-        m->topic, std::string_view(static_cast<const char*>(m->payload),
-                                   static_cast<std::size_t>(std::max(0, m->payloadlen))));
+    self(u)->on_message(m->topic,
+                        std::string_view(static_cast<const char*>(m->payload),
+                                         static_cast<std::size_t>(std::max(0, m->payloadlen))));
   });
   // the library's own thread reconnects with back-off (0.5 s doubling up to 5 s)
   mosquitto_reconnect_delay_set(w->mosq_, 1, 5, true);

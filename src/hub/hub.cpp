@@ -129,6 +129,17 @@ Result<std::unique_ptr<Hub>> Hub::connect(const RobotModel& model, const HubOpti
     }
     return hub_error(fmt::format("simulator hello: {}", hi.error().message));
   }
+  // an un-homed robot's joints are its counts since power-up, not where it is (d1 reads 0 mm,
+  // below its soft limit): the simulator takes them for no limit warning until homing ends
+  // (home() restores the phase). Said before the robot's reports begin, and taken back at once
+  // for a robot already homed.
+  (void)t->set_twin_phase(pr::TwinPhase::kHoming);
+  if (auto qs = t->robot_->request(pr::QueryState{}, milliseconds(1000)); qs) {
+    const auto* st = std::get_if<pr::DeviceState>(&qs->last());
+    if (st != nullptr && (st->flags & pr::state_flags::kHomed) != 0) {
+      (void)t->set_twin_phase(t->twin_phase_.load());
+    }
+  }
   auto sr = t->robot_->request(pr::SetReportRate{o.report_rate_hz}, milliseconds(1000));
   if (!sr) return hub_error(fmt::format("set report rate: {}", sr.error().message));
   return t;
@@ -511,6 +522,13 @@ Status Hub::home(double timeout_s) {
   // homing starts from rest: a move that a host which gave up left running out its queue
   // ends first (HM then drops what it left)
   if (Status s = wait_motors_at_rest(60.0); !s) return s;
+  // the robot passes its soft limits on the way to its endstops: the simulator notes no
+  // limit warning until homing ends (best effort: a missing simulator does not stop homing)
+  (void)set_twin_phase(pr::TwinPhase::kHoming);
+  struct RestorePhase {
+    Hub* hub;
+    ~RestorePhase() { (void)hub->set_twin_phase(hub->twin_phase_.load()); }
+  } restore{this};
   if (Status s = check("home", robot_->request(pr::Home{}, milliseconds(1000))); !s) return s;
   auto ev = wait_event({pr::DeviceEventCode::kHomed, pr::DeviceEventCode::kHomingFailed}, timeout_s,
                        mark);

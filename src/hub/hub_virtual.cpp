@@ -44,6 +44,7 @@ Status Hub::set_twin_phase(pr::TwinPhase phase) {
   auto r =
       sim_reply<pr::Ack>("twin phase", sim_->request(pr::SetTwinPhase{phase}, milliseconds(2000)));
   if (!r) return r.error();
+  if (phase != pr::TwinPhase::kHoming) twin_phase_ = phase;
   return Ok{};
 }
 

@@ -236,11 +236,11 @@ Decoded<TcpToSim> to_message(const Packet& p, TcpToSim*) {
       return make<M>(m);
     }
     case code_id('T', 'W'): {
-      for (TwinPhase t :
-           {TwinPhase::kNone, TwinPhase::kMirror, TwinPhase::kControl, TwinPhase::kPrediction}) {
+      for (TwinPhase t : {TwinPhase::kNone, TwinPhase::kMirror, TwinPhase::kControl,
+                          TwinPhase::kPrediction, TwinPhase::kHoming}) {
         if (p.text_equals(0, phase_name(t))) return make<M>(SetTwinPhase{t});
       }
-      return bad_value(p, 0, "none, mirror, control, prediction");
+      return bad_value(p, 0, "none, mirror, control, prediction, homing");
     }
     case code_id('G', 'R'):
       in_range(p, 0, 0, 1, &error);

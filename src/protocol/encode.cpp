@@ -312,6 +312,8 @@ const char* phase_name(TwinPhase phase) {
       return "control";
     case TwinPhase::kPrediction:
       return "prediction";
+    case TwinPhase::kHoming:
+      return "homing";
     case TwinPhase::kNone:
       break;
   }

@@ -79,6 +79,8 @@ struct SimServer::Impl {
       return;
     }
     if (options.on_new_stream) options.on_new_stream();
+    // a new hub: a homing phase a hub left unfinished (it died) ends here
+    world.with_simulation([](Simulation& s) { s.set_limit_warnings(true); });
     put(out, proto::PeerHello{core::kProtocolVersion, kDeviceName, kSoftwareVersion});
   }
   void on(std::string& out, const proto::Ping& m) { put(out, proto::Ack{"PI", m.token}); }
@@ -129,6 +131,8 @@ struct SimServer::Impl {
     put(out, proto::Ack{"MD", std::nullopt});
   }
   void on(std::string& out, const proto::SetTwinPhase& m) {
+    world.with_simulation(
+        [&](Simulation& s) { s.set_limit_warnings(m.phase != proto::TwinPhase::kHoming); });
     if (options.on_twin_phase) {
       options.on_twin_phase(m.phase == proto::TwinPhase::kNone ? std::string()
                                                                : proto::phase_name(m.phase));

@@ -271,6 +271,7 @@ JointWarning Simulation::push_warning(int joint, double value) {
 
 std::vector<JointWarning> Simulation::note_limits(const JointVector& q) {
   std::vector<JointWarning> out;
+  if (!limit_warnings_) return out;
   for (int j = 0; j < kNumJoints; ++j) {
     if (!robot_.limits[j].contains(q[j])) out.push_back(push_warning(j, q[j]));
   }

@@ -205,6 +205,23 @@ TEST_F(SimServerTest, JointLimitWarningComesBeforeTheReply) {
   EXPECT_EQ(server_->counters().warnings_sent, 1u);
 }
 
+// While the hub says the robot homes (TW,homing), joints beyond their soft limits are not
+// warnings (homing passes them on the way to the endstops, by design); the next phase, or a new
+// hub's hello, notes them again.
+TEST_F(SimServerTest, NoLimitWarningWhileTheRobotHomes) {
+  EXPECT_EQ(server_->handle_line("TW,homing,"), "AK,TW,\n");
+  const std::string homing = server_->handle_line("JD,4,0,80,130,0,0,");
+  EXPECT_EQ(homing.rfind("JA,4,", 0), 0u) << homing;
+  EXPECT_EQ(world_->snapshot().warnings_total, 0u);
+  EXPECT_EQ(server_->handle_line("TW,mirror,"), "AK,TW,\n");
+  EXPECT_EQ(server_->handle_line("JD,5,0,80,131,0,0,").rfind("JW,2,131,\nJA,5,", 0), 0u);
+  EXPECT_EQ(world_->snapshot().warnings_total, 1u);
+  EXPECT_EQ(server_->handle_line("TW,homing,"), "AK,TW,\n");
+  EXPECT_EQ(server_->handle_line("HI,1,"), "HI,1,scaratwin-sim,0.1.0,\n");
+  EXPECT_EQ(server_->handle_line("JD,6,0,80,132,0,0,").rfind("JW,2,132,\nJA,6,", 0), 0u);
+  EXPECT_EQ(world_->snapshot().warnings_total, 2u);
+}
+
 TEST_F(SimServerTest, SimulateModeFollowsTargetsAndGrasps) {
   world_->start();
   ASSERT_TRUE(client_->send("MD,simulate,\nSC,red,150,0,\nJD,1,0,80,0,0,0,\n").ok());
@@ -285,9 +302,10 @@ TEST(SimServerPhase, HandsTheTwinPhaseOn) {
   ASSERT_TRUE(server.ok());
   EXPECT_EQ((*server)->handle_line("TW,control,"), "AK,TW,\n");
   EXPECT_EQ((*server)->handle_line("TW,prediction,"), "AK,TW,\n");
+  EXPECT_EQ((*server)->handle_line("TW,homing,"), "AK,TW,\n");
   EXPECT_EQ((*server)->handle_line("TW,replay,"), "ER,11,0,\n");
   EXPECT_EQ((*server)->handle_line("TW,none,"), "AK,TW,\n");
-  EXPECT_EQ(phases, (std::vector<std::string>{"control", "prediction", ""}));
+  EXPECT_EQ(phases, (std::vector<std::string>{"control", "prediction", "homing", ""}));
 }
 
 // A hub's hello and a mode switch tell the link figures that a new stream of joint frames

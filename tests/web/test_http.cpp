@@ -238,7 +238,8 @@ TEST(WebServer, FleetDataOnlyWithAFleetAndBehindTheToken) {
     ASSERT_TRUE(plain.ok()) << plain.error().message;
     const std::string r = get((*plain)->port(), "/api/fleet");
     EXPECT_EQ(r.rfind("HTTP/1.1 404", 0), 0U) << r;
-    EXPECT_EQ(body_of(r), "this simulator watches no fleet: start it with --mqtt mqtt://HOST[:PORT]\n");
+    EXPECT_EQ(body_of(r),
+              "this simulator watches no fleet: start it with --mqtt mqtt://HOST[:PORT]\n");
     EXPECT_EQ(nlohmann::json::parse(body_of(get((*plain)->port(), "/api/scene")))["fleet"], false);
   }
   o.token = "t0ken";

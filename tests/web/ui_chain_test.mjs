@@ -66,6 +66,10 @@ try {
   const page = context.pages()[0] || await context.newPage();
   await page.goto(`http://127.0.0.1:${httpPort}/`);
   await page.waitForFunction(() => window.scaratwin && window.scaratwin.state !== null, null, { timeout: 20000 });
+  // homing passed the soft limits on its way to the switches; the hub said it was homing, so
+  // the simulator took none of it for a limit warning
+  check('no limit warning from homing', (await page.locator('#warn-count').textContent()) === 'within limits',
+    `${await page.locator('#warn-count').textContent()}: ${JSON.stringify(await page.evaluate(() => window.scaratwin.state.warnings))}`);
   const framesBefore = await page.evaluate(() => window.scaratwin.state.link.frames);
   const lostBefore = await page.evaluate(() => window.scaratwin.state.link.lost);
 

@@ -29,10 +29,10 @@ inline constexpr std::size_t kMaxWatchedRobots = 1000;
 inline constexpr std::size_t kMaxStateBytes = 16384;
 
 struct WatchCounters {
-  std::uint64_t states = 0;      // state messages kept
-  std::uint64_t malformed = 0;   // state payloads that are not a JSON object, or too large
-  std::uint64_t ignored = 0;     // messages on topics outside the layout, or beyond the robot cap
-  std::uint64_t connects = 0;    // CONNACKs accepted
+  std::uint64_t states = 0;     // state messages kept
+  std::uint64_t malformed = 0;  // state payloads that are not a JSON object, or too large
+  std::uint64_t ignored = 0;    // messages on topics outside the layout, or beyond the robot cap
+  std::uint64_t connects = 0;   // CONNACKs accepted
 };
 
 // What is known of one robot. `state_json` is the last state payload as received ("" before

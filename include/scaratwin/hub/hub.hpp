@@ -259,6 +259,8 @@ class Hub {
   MotionDirections report_dir_{};
   JointVector report_joint_{};  // the last report's joints (the belts' play applied)
   bool play_reset_ = false;     // homing: start the play again from the homed sides
+  // the twin's phase as last set (set_twin_phase); homing restores it when it ends
+  std::atomic<protocol::TwinPhase> twin_phase_{protocol::TwinPhase::kNone};
 };
 
 }  // namespace scaratwin

@@ -206,7 +206,9 @@ struct SetMode {
 };
 // The paper's three operating modes of the twin, as the hub runs them; none: the hub says
 // nothing (the UI derives what it shows from the simulator's mode).
-enum class TwinPhase { kNone, kMirror, kControl, kPrediction };
+// kHoming: the robot homes against its endstops, passing its soft limits on the way (the
+// simulator notes no limit warning meanwhile).
+enum class TwinPhase { kNone, kMirror, kControl, kPrediction, kHoming };
 // TW: what the twin is doing, for the simulator's browser UI.
 struct SetTwinPhase {
   TwinPhase phase = TwinPhase::kNone;

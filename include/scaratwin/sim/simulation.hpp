@@ -201,6 +201,10 @@ class Simulation {
   std::array<double, 3> tool_site_pos() const;
   std::vector<ToolPoint> tool_path() const;
   const std::deque<JointWarning>& recent_warnings() const { return warnings_; }
+  // Off while the robot homes (it passes its soft limits on the way to its endstops, by design):
+  // joints beyond their limits are then not warnings. On by default.
+  void set_limit_warnings(bool on) { limit_warnings_ = on; }
+  bool limit_warnings() const { return limit_warnings_; }
   std::uint64_t warnings_total() const { return warnings_total_; }
   const RobotModel& robot() const { return robot_; }
   const SimOptions& options() const { return options_; }
@@ -276,6 +280,7 @@ class Simulation {
   std::deque<ToolPoint> path_;
   double next_path_s_ = 0.0;
   std::deque<JointWarning> warnings_;
+  bool limit_warnings_ = true;
   std::uint64_t warnings_total_ = 0;
 };
 
