@@ -182,24 +182,38 @@ TEST_F(HttpTest, WebSocketFromAnotherSiteIsRefused) {
   EXPECT_EQ(upgrade(port, "/ws", self, ""), "HTTP/1.1 101 Switching Protocols");
 }
 
+// A page folder holding an index.html of "page", and a world without a camera, removed at the
+// end of the test.
+struct PageAndWorld {
+  explicit PageAndWorld(const std::string& name)
+      : root(std::filesystem::temp_directory_path() /
+             ("scaratwin-web-" + name + "-" + std::to_string(::getpid()))) {
+    std::filesystem::create_directories(root);
+    std::ofstream(root / "index.html") << "page";
+    auto robot = load_robot_config_or_default("");
+    EXPECT_TRUE(robot.ok());
+    sim::WorldOptions wo;
+    wo.camera = false;
+    auto w = sim::World::create(*robot, {}, wo);
+    EXPECT_TRUE(w.ok());
+    if (w) world = std::move(*w);
+    options.port = 0;
+    options.root_dir = root.string();
+  }
+  ~PageAndWorld() { std::filesystem::remove_all(root); }
+  std::filesystem::path root;
+  std::unique_ptr<sim::World> world;
+  WebOptions options;
+};
+
 // With a token (a simulator serving beyond this machine), the socket and the JSON endpoints
 // need it on every connection; the page's files do not (they hold nothing secret).
 TEST(WebServer, TokenIsNeededForTheSocketAndTheApi) {
-  const auto root = std::filesystem::temp_directory_path() /
-                    ("scaratwin-web-token-" + std::to_string(::getpid()));
-  std::filesystem::create_directories(root);
-  std::ofstream(root / "index.html") << "page";
-  auto robot = load_robot_config_or_default("");
-  ASSERT_TRUE(robot.ok());
-  sim::WorldOptions wo;
-  wo.camera = false;
-  auto world = sim::World::create(*robot, {}, wo);
-  ASSERT_TRUE(world.ok());
-  WebOptions o;
-  o.port = 0;
-  o.root_dir = root.string();
+  PageAndWorld pw("token");
+  ASSERT_TRUE(pw.world);
+  WebOptions o = pw.options;
   o.token = "t0ken";
-  auto server = WebServer::create(**world, o);
+  auto server = WebServer::create(*pw.world, o);
   ASSERT_TRUE(server.ok()) << server.error().message;
   const std::uint16_t port = (*server)->port();
   const std::string lan = "192.168.1.20:" + std::to_string(port);
@@ -214,27 +228,16 @@ TEST(WebServer, TokenIsNeededForTheSocketAndTheApi) {
   EXPECT_EQ(body_of(get(port, "/?token=t0ken")), "page");
   EXPECT_EQ(body_of(get(port, "/")), "page");
   server->reset();
-  std::filesystem::remove_all(root);
 }
 
 // The fleet page's data: served only by a server given a fleet, behind the same token, and the
 // scene tells the page whether there is one (so it links to the fleet page).
 TEST(WebServer, FleetDataOnlyWithAFleetAndBehindTheToken) {
-  const auto root = std::filesystem::temp_directory_path() /
-                    ("scaratwin-web-fleet-" + std::to_string(::getpid()));
-  std::filesystem::create_directories(root);
-  std::ofstream(root / "index.html") << "page";
-  auto robot = load_robot_config_or_default("");
-  ASSERT_TRUE(robot.ok());
-  sim::WorldOptions wo;
-  wo.camera = false;
-  auto world = sim::World::create(*robot, {}, wo);
-  ASSERT_TRUE(world.ok());
-  WebOptions o;
-  o.port = 0;
-  o.root_dir = root.string();
+  PageAndWorld pw("fleet");
+  ASSERT_TRUE(pw.world);
+  WebOptions o = pw.options;
   {
-    auto plain = WebServer::create(**world, o);
+    auto plain = WebServer::create(*pw.world, o);
     ASSERT_TRUE(plain.ok()) << plain.error().message;
     const std::string r = get((*plain)->port(), "/api/fleet");
     EXPECT_EQ(r.rfind("HTTP/1.1 404", 0), 0U) << r;
@@ -244,7 +247,7 @@ TEST(WebServer, FleetDataOnlyWithAFleetAndBehindTheToken) {
   }
   o.token = "t0ken";
   o.fleet = [] { return std::string(R"({"robots": [{"name": "r1"}]})"); };
-  auto server = WebServer::create(**world, o);
+  auto server = WebServer::create(*pw.world, o);
   ASSERT_TRUE(server.ok()) << server.error().message;
   const std::uint16_t port = (*server)->port();
   EXPECT_EQ(get(port, "/api/fleet").rfind("HTTP/1.1 403", 0), 0U);
@@ -253,7 +256,6 @@ TEST(WebServer, FleetDataOnlyWithAFleetAndBehindTheToken) {
   EXPECT_EQ(body_of(r), R"({"robots": [{"name": "r1"}]})");
   EXPECT_EQ(nlohmann::json::parse(body_of(get(port, "/api/scene?token=t0ken")))["fleet"], true);
   server->reset();
-  std::filesystem::remove_all(root);
 }
 
 // issue 17: a browser that asks for pictures and never reads them made the server queue

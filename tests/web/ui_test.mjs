@@ -4,14 +4,14 @@
 // Usage: node ui_test.mjs --sim <scaratwin-sim> --node-modules <dir> --artifacts <dir>
 // Prints one line per check and "N passed, N failed"; exits non-zero on any failure.
 import { createRequire } from 'node:module';
-import { spawn } from 'node:child_process';
 import fs from 'node:fs';
 import net from 'node:net';
 import os from 'node:os';
 import path from 'node:path';
 
-const args = Object.fromEntries(
-  process.argv.slice(2).reduce((acc, v, i, a) => (v.startsWith('--') ? [...acc, [v.slice(2), a[i + 1]]] : acc), []));
+import { check, freePort, parseArgs, results, sleep, start, stop, waitHttp } from './harness.mjs';
+
+const args = parseArgs(process.argv.slice(2));
 const simExe = args.sim;
 const nodeModules = args['node-modules'];
 const artifacts = args.artifacts;
@@ -23,57 +23,10 @@ if (!simExe || !nodeModules || !artifacts) {
 const require = createRequire(path.join(path.resolve(nodeModules), 'noop.js'));
 const { chromium } = require('playwright-core');
 
-let passed = 0;
-let failed = 0;
-function check(name, ok, detail = '') {
-  if (ok) passed++;
-  else failed++;
-  console.log(`${ok ? 'ok  ' : 'FAIL'} ${name}${detail ? `: ${detail}` : ''}`);
-}
-const sleep = (ms) => new Promise((r) => setTimeout(r, ms));
-
-async function freePort() {
-  return new Promise((resolve, reject) => {
-    const srv = net.createServer();
-    srv.once('error', reject);
-    srv.listen(0, '127.0.0.1', () => {
-      const { port } = srv.address();
-      srv.close(() => resolve(port));
-    });
-  });
-}
-
 // --- the simulator -------------------------------------------------------------------------------
-function startSim(tcpPort, httpPort) {
-  const proc = spawn(simExe, ['--port', String(tcpPort), '--http-port', String(httpPort)], {
-    stdio: ['ignore', 'pipe', 'pipe'],
-  });
-  proc.output = '';
-  proc.stdout.on('data', (d) => { proc.output += d; });
-  proc.stderr.on('data', (d) => { proc.output += d; });
-  proc.exited = new Promise((resolve) => proc.on('exit', resolve));
-  return proc;
-}
-
-async function waitHttp(port, timeoutMs) {
-  const deadline = Date.now() + timeoutMs;
-  while (Date.now() < deadline) {
-    try {
-      const r = await fetch(`http://127.0.0.1:${port}/api/scene`);
-      if (r.ok) return true;
-    } catch (e) { /* not up yet */ }
-    await sleep(100);
-  }
-  return false;
-}
-
-async function stopSim(proc) {
-  if (proc.exitCode !== null) return;
-  proc.kill('SIGTERM');
-  const t = setTimeout(() => proc.kill('SIGKILL'), 5000);
-  await proc.exited;
-  clearTimeout(t);
-}
+const startSim = (tcpPort, httpPort) =>
+  start('', path.resolve(simExe), ['--port', String(tcpPort), '--http-port', String(httpPort)]);
+const stopSim = (proc) => stop(proc);
 
 // --- the hub's side of the virtual link ----------------------------------------------------------
 class Hub {
@@ -271,5 +224,5 @@ try {
   await stopSim(sim);
   fs.rmSync(userDir, { recursive: true, force: true });
 }
-console.log(`${passed} passed, ${failed} failed`);
-process.exit(failed === 0 ? 0 : 1);
+console.log(`${results.passed} passed, ${results.failed} failed`);
+process.exit(results.failed === 0 ? 0 : 1);
