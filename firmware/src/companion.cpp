@@ -2,9 +2,12 @@
 
 #if defined(__AVR__)
 #include <avr/pgmspace.h>
+#define memcpy_flash memcpy_P
 #else
+#include <string.h>
 #define PROGMEM
 #define pgm_read_byte(p) (*(const uint8_t*)(p))
+#define memcpy_flash memcpy
 #endif
 
 namespace fw {
@@ -72,7 +75,56 @@ struct Out {
   }
 };
 
+// the powers of ten a u32 has, largest first (flash)
+const uint32_t kPow10[] PROGMEM = {1000000000ul, 100000000ul, 10000000ul, 1000000ul, 100000ul,
+                                   10000ul,      1000ul,      100ul,      10ul,      1ul};
+
+// One line "<letter><value>\n" into out at n; false if it did not fit.
+bool report_line(char* out, uint8_t cap, uint8_t* n, char letter, uint32_t magnitude,
+                 bool negative) {
+  char line[13];
+  uint8_t k = 0;
+  line[k++] = letter;
+  if (negative) line[k++] = '-';
+  bool started = false;
+  for (uint8_t i = 0; i < 10; ++i) {
+    uint32_t p;
+    memcpy_flash(&p, &kPow10[i], sizeof p);
+    char d = '0';
+    while (magnitude >= p) {
+      magnitude -= p;
+      ++d;
+    }
+    if (d != '0' || started || i == 9) {
+      line[k++] = d;
+      started = true;
+    }
+  }
+  line[k++] = '\n';
+  if (*n + k > cap) return false;
+  for (uint8_t i = 0; i < k; ++i) out[(*n)++] = line[i];
+  return true;
+}
+
+bool report_i32(char* out, uint8_t cap, uint8_t* n, char letter, int32_t v) {
+  const uint32_t u = v < 0 ? (uint32_t)(-(v + 1)) + 1u : (uint32_t)v;
+  return report_line(out, cap, n, letter, u, v < 0);
+}
+
 }  // namespace
+
+uint8_t companion_report_lines(char* out, uint8_t cap, uint32_t t_us, const int32_t pos[kNumAxes],
+                               const int32_t zero[kNumAxes], int32_t wrist_cdeg,
+                               int32_t grip_cdeg) {
+  uint8_t n = 0;
+  const char axis_letter[kNumAxes] = {'z', 'y', 'x'};
+  bool ok = report_line(out, cap, &n, 't', t_us, false);
+  for (uint8_t i = 0; i < kNumAxes && ok; ++i)
+    ok = report_i32(out, cap, &n, axis_letter[i], pos[i] - zero[i]);
+  ok = ok && report_i32(out, cap, &n, 'w', wrist_cdeg);
+  ok = ok && report_i32(out, cap, &n, 'g', grip_cdeg);
+  return ok ? n : 0;
+}
 
 CompanionKind companion_parse(const char* line, uint8_t len, uint8_t* axis, int32_t* steps) {
   if (len == 0) return kCompanionUnknown;

@@ -46,6 +46,19 @@ enum CompanionError : uint8_t {
   kCompErrBusy,
   kCompErrHalted
 };
+// The single-class report (setting 10 = 2): one sample of the robot as a sketch that sends one
+// value per packet reports it, one line per value in a fixed order, each line named by its
+// letter:
+//   t<us>     the sample's time, micros() (the measuring instrument: the mixed ST has it too)
+//   z<steps>  y<steps>  x<steps>   the Z, J2 and J3 motor counts in the companion frame (the
+//                                  counts minus zero[]: the frame of the z/y/x lines)
+//   w<cdeg>   g<cdeg>              the wrist and gripper servos' output
+// Digits are made by subtracting powers of ten (no division: the AVR divides in software).
+// Writes at most `cap` bytes and returns the length, 0 if the lines did not fit.
+constexpr uint8_t kCompanionReportMax = 72;  // 6 lines of at most 12 bytes
+uint8_t companion_report_lines(char* out, uint8_t cap, uint32_t t_us, const int32_t pos[kNumAxes],
+                               const int32_t zero[kNumAxes], int32_t wrist_cdeg, int32_t grip_cdeg);
+
 uint8_t companion_error_line(char* out, uint8_t cap, const char* line, uint8_t len,
                              CompanionError why, int32_t lo, int32_t hi, int8_t axis = -1,
                              int32_t target = 0);

@@ -267,6 +267,7 @@ void cmd_cf(const core::Packet& p) {
   settings_save(g_settings);
   settings_get(g_settings, p.i32(0), &value);
   reply_ak('C', 'F', true, value);
+  if (p.i32(0) == 10) report_set_single_class(g_settings.companion == 2);
   if (p.i32(0) == 11) {
     g_baud_pending = true;  // the reply goes out at the old rate
     g_baud_idle_us = 0;
@@ -598,6 +599,7 @@ void controller_init() {
   stepper_set_run(true);
   sei();
   report_set_rate(g_settings.report_hz, clock_micros());
+  report_set_single_class(g_settings.companion == 2);
   send_hello();
   if (g_settings.companion) {
     // the companion sketch homes in setup(): its scripts expect a homed robot

@@ -1,7 +1,9 @@
 #include "report.h"
 
 #include "clock.h"
+#include "companion.h"
 #include "fw_config.h"
+#include "homing.h"
 #include "scaratwin/protocol/codec_core.h"
 #include "serial.h"
 #include "servo.h"
@@ -16,6 +18,7 @@ uint16_t g_rate_hz = 0;
 uint32_t g_period_us = 0;
 uint32_t g_next_us = 0;
 uint16_t g_seq = 0;
+bool g_single_class = false;
 
 }  // namespace
 
@@ -26,6 +29,8 @@ void report_set_rate(uint16_t rate_hz, uint32_t now_us) {
 }
 
 uint16_t report_rate() { return g_rate_hz; }
+
+void report_set_single_class(bool on) { g_single_class = on; }
 
 namespace {
 
@@ -50,6 +55,20 @@ bool send_report(uint8_t flags, uint8_t queue_free, uint8_t reserve) {
   return serial_write(buf, (uint8_t)enc.size());
 }
 
+// The same sample as one line per value (companion.h); the number is used either way.
+bool send_single_class(uint8_t reserve) {
+  const uint32_t t = clock_micros();
+  int32_t pos[kNumAxes];
+  stepper_positions(pos);
+  char buf[kCompanionReportMax];
+  const uint8_t n =
+      companion_report_lines(buf, sizeof buf, t, pos, homing_switch_counts(),
+                             servo_output_cdeg(kServoWrist), servo_output_cdeg(kServoGrip));
+  g_seq = (uint16_t)(g_seq + 1);
+  if (n == 0 || serial_tx_free() < n + reserve) return false;  // lost: the t lines show it
+  return serial_write(buf, n);
+}
+
 }  // namespace
 
 bool report_now(uint8_t flags, uint8_t queue_free) {
@@ -69,7 +88,11 @@ void report_poll(uint32_t now_us, uint8_t flags, uint8_t queue_free) {
   uint32_t missed = (uint32_t)late / g_period_us;  // deadlines the loop did not see
   g_seq = (uint16_t)(g_seq + missed);
   g_next_us += (missed + 1) * g_period_us;
-  send_report(flags, queue_free, kReplyReserve);
+  if (g_single_class) {
+    send_single_class(kReplyReserve);
+  } else {
+    send_report(flags, queue_free, kReplyReserve);
+  }
 }
 
 }  // namespace fw

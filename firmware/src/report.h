@@ -22,6 +22,10 @@ constexpr uint8_t kReplyReserve = 32;
 constexpr uint8_t kCompanionReserve = 64;
 
 void report_set_rate(uint16_t rate_hz, uint32_t now_us);
+// The periodic reports' form: false one ST packet per sample (the default), true the
+// single-class lines of companion_report_lines (setting 10 = 2). A QS is answered with ST in
+// either form. A sample whose lines do not fit the transmit buffer is not sent at all.
+void report_set_single_class(bool on);
 uint16_t report_rate();
 // Sends the periodic report if due. `flags` and `queue_free` as in docs/protocol.md.
 void report_poll(uint32_t now_us, uint8_t flags, uint8_t queue_free);

@@ -62,7 +62,7 @@ const KeyInfo kKeys[] = {
     {&Settings::jog_speed, 1, 5000},
     {&Settings::servo_speed, 100, 60000},
     {&Settings::coupling_permille, 0, 5000},
-    {&Settings::companion, 0, 1},
+    {&Settings::companion, 0, 2},
     {&Settings::baud_hundreds, 96, 10000},  // settings_baud_listed
 };
 constexpr int32_t kNumKeys = (int32_t)(sizeof(kKeys) / sizeof(kKeys[0]));

@@ -24,7 +24,7 @@ struct Settings {
   uint16_t jog_speed;          // steps/s for JG and the buttons  (CF key 7)
   uint16_t servo_speed;        // cdeg/s, wrist and gripper       (CF key 8)
   uint16_t coupling_permille;  // J3 motor steps per 1000 J2 steps (CF key 9)
-  uint16_t companion;          // 1: also read the companion dialect (CF key 10)
+  uint16_t companion;          // 1: read the companion dialect, 2: + single-class (CF key 10)
   uint16_t baud_hundreds;      // serial baud / 100 (CF key 11): settings_baud_listed
   uint16_t servo_min_us;       // pulse at 0 deg
   uint16_t servo_max_us;       // pulse at 180 deg

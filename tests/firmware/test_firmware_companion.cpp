@@ -91,5 +91,26 @@ TEST(Companion, ErrorLinesNameTheLineAndTheReason) {
   EXPECT_EQ(std::string(out, n), "error: z-\n");
 }
 
+// The single-class report (setting 10 = 2): one line per value, fixed order, the counts in the
+// switch frame; written out by hand.
+TEST(Companion, SingleClassReportIsOneValuePerLine) {
+  char buf[kCompanionReportMax];
+  const int32_t pos[kNumAxes] = {24667, 0, 0};
+  const int32_t zero[kNumAxes] = {25181, 1930, -443};
+  uint8_t n = companion_report_lines(buf, sizeof buf, 4294967295u, pos, zero, 9000, 7500);
+  EXPECT_EQ(std::string(buf, n), "t4294967295\nz-514\ny-1930\nx443\nw9000\ng7500\n");
+  n = companion_report_lines(buf, sizeof buf, 0, zero, zero, 0, 0);
+  EXPECT_EQ(std::string(buf, n), "t0\nz0\ny0\nx0\nw0\ng0\n");
+  // the extremes of an int32 count (sign and ten digits) and 10^k boundaries
+  const int32_t far[kNumAxes] = {-2147483647 - 1, 2147483647, 1000000000};
+  const int32_t none[kNumAxes] = {0, 0, 0};
+  n = companion_report_lines(buf, sizeof buf, 1000000, far, none, 10, 99);
+  EXPECT_EQ(std::string(buf, n), "t1000000\nz-2147483648\ny2147483647\nx1000000000\nw10\ng99\n");
+  // what does not fit is not written at all
+  EXPECT_EQ(companion_report_lines(buf, 20, 4294967295u, pos, zero, 9000, 7500), 0);
+  EXPECT_EQ(companion_report_lines(buf, 41, 4294967295u, pos, zero, 9000, 7500), 0);
+  EXPECT_EQ(companion_report_lines(buf, 42, 4294967295u, pos, zero, 9000, 7500), 42);
+}
+
 }  // namespace
 }  // namespace fw

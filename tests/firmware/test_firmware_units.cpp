@@ -270,7 +270,10 @@ TEST(Settings, KeysHaveRangesAndUnknownKeysAreRefused) {
   EXPECT_EQ(s.companion, 0) << "the companion dialect is off by default";
   EXPECT_EQ(settings_set(s, 10, 1), kSettingOk);
   EXPECT_EQ(s.companion, 1);
-  EXPECT_EQ(settings_set(s, 10, 2), kSettingBadValue);
+  EXPECT_EQ(settings_set(s, 10, 2), kSettingOk) << "2: and the single-class reports";
+  EXPECT_EQ(s.companion, 2);
+  EXPECT_EQ(settings_set(s, 10, 3), kSettingBadValue);
+  EXPECT_EQ(s.companion, 2) << "a refused value changes nothing";
   // key 11, the serial rate: only the rates the 16 MHz clock makes within 1 %
   EXPECT_EQ(s.baud_hundreds, 1152) << "115200 baud by default";
   for (int32_t h : {96, 576, 1152, 2500, 5000, 10000})

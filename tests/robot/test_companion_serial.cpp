@@ -135,6 +135,55 @@ TEST_F(CompanionSerial, ALineLostWhileAMoveRunsIsAnsweredInItsPlace) {
   EXPECT_TRUE(reaches(robot, kZeroZ - 4000, kZeroJ2 - 2400, j3));
 }
 
+// Setting 10 = 2: the periodic reports as a single-class sketch sends them, one value per
+// line (t, z, y, x, w, g), the counts in the switch frame; the truth (the STEP/DIR pins) is
+// the oracle for the counts. A QS is still answered with ST, and setting 1 brings ST back.
+TEST_F(CompanionSerial, SingleClassReportsOneValuePerLineInTheSwitchFrame) {
+  robot.send("z-6000\ny-2400\nx1500\nm\n");
+  ASSERT_TRUE(reaches(robot, kZeroZ - 6000, kZeroJ2 - 2400, kZeroJ3 + 1500));
+  const Truth at = robot.truth();
+  ASSERT_EQ(robot.request("CF=10=2=\n").value_or(""), "AK=CF=2=");
+  ASSERT_EQ(robot.request("SR=100=\n").value_or(""), "AK=SR=100=");
+  std::vector<std::string> lines;
+  for (int i = 0; i < 40; ++i) {
+    auto l = robot.line(10.0, true);
+    ASSERT_TRUE(l) << "no line after " << i;
+    lines.push_back(*l);
+  }
+  std::size_t first = 0;
+  while (first < lines.size() && lines[first][0] != 't') ++first;
+  ASSERT_LT(first + 18, lines.size());
+  const std::string order = "tzyxwg";
+  std::vector<long long> t_us;
+  for (std::size_t k = first; k + 6 <= lines.size(); k += 6) {
+    for (std::size_t i = 0; i < 6; ++i) {
+      ASSERT_EQ(lines[k + i][0], order[i]) << "line " << k + i << ": " << lines[k + i];
+      EXPECT_EQ(lines[k + i].find_first_not_of("-0123456789", 1), std::string::npos)
+          << lines[k + i];
+    }
+    t_us.push_back(std::stoll(lines[k].substr(1)));
+    EXPECT_EQ(std::stol(lines[k + 1].substr(1)), at.i("z") - kZeroZ);
+    EXPECT_EQ(std::stol(lines[k + 2].substr(1)), at.i("j2") - kZeroJ2);
+    EXPECT_EQ(std::stol(lines[k + 3].substr(1)), at.i("j3") - kZeroJ3);
+    EXPECT_EQ(std::stol(lines[k + 3].substr(1)), 1500);
+  }
+  // 100 Hz: a sample every 10 ms of the robot's clock, on the report grid (an AVR at rest
+  // sleeps between its 1 ms clock ticks, so a sample is taken up to a tick late)
+  ASSERT_GE(t_us.size(), 3u);
+  for (std::size_t k = 1; k < t_us.size(); ++k) {
+    EXPECT_NEAR(static_cast<double>(t_us[k] - t_us[k - 1]), 10000.0, 1100.0);
+  }
+  EXPECT_NEAR(
+      static_cast<double>(t_us.back() - t_us.front()) / static_cast<double>(t_us.size() - 1),
+      10000.0, 400.0);
+  auto st = robot.query_state();
+  ASSERT_TRUE(st) << "QS is answered with ST in the single-class form too";
+  EXPECT_EQ(st->z(), at.i("z"));
+  ASSERT_EQ(robot.request("CF=10=1=\n").value_or(""), "AK=CF=1=");
+  auto l = robot.wait_for("ST=");
+  ASSERT_TRUE(l) << "setting 1: the periodic reports are ST again";
+}
+
 TEST(CompanionSerialOff, CompanionLinesAreVersionOneErrorsAndViceVersa) {
   Robot r;
   ASSERT_TRUE(r.ok()) << r.error();
