@@ -5,13 +5,19 @@
 //  - Fig. 15's control half: the time to reach five target points with the paper's
 //    "traditional single-class" loading (one value per line, z, y, x, then m, with the companion
 //    scripts' 2 s pauses: the firmware's companion dialect) against our mixed packets (a
-//    quintic loaded as TB/TP with credit flow control).
+//    quintic loaded as TB/TP with credit flow control);
+//  - Fig. 15's mapping half: the delay from the robot's state to the virtual robot over five
+//    action sets, the robot reporting one value per line (setting 10 = 2) and the twin loading
+//    them one by one, against our ST packets mirrored by the hub.
+#include <algorithm>
 #include <array>
 #include <chrono>
 #include <cmath>
 #include <csignal>
+#include <cstdio>
 #include <filesystem>
 #include <fstream>
+#include <mutex>
 #include <numbers>
 #include <sstream>
 #include <thread>
@@ -28,7 +34,9 @@
 #include "scaratwin/kinematics/kinematics.hpp"
 #include "scaratwin/kinematics/motor.hpp"
 #include "scaratwin/trajectory/trajectory.hpp"
+#include "scaratwin/transport/channel.hpp"
 #include "scaratwin/transport/serial.hpp"
+#include "scaratwin/transport/tcp.hpp"
 #include "svg_plot.hpp"
 
 namespace scaratwin::cli {
@@ -42,8 +50,10 @@ struct BenchArgs {
   int report_hz = 200;
   std::string out = "scaratwin-bench";
   bool short_form = false;
-  std::string only;  // "", "baud" or "control"
-  int targets = 5;   // Fig. 15 control targets
+  std::string only;         // "", "baud", "control" or "mapping"
+  int targets = 5;          // Fig. 15 control targets
+  int action_sets = 5;      // Fig. 15 mapping action sets
+  double mapping_s = 10.0;  // per action set and form
 };
 
 // The rate the Uno's UART makes for a nominal one (U2X: 16 MHz / 8 / (UBRR + 1)), as the
@@ -287,6 +297,294 @@ Result<std::vector<ControlResult>> measure_control(const RobotModel& model, cons
   return results;
 }
 
+// ---- Fig. 15, mapping: the robot's state onto the virtual robot -----------------------------
+
+// The paper's five "sets of action commands programmed for the physical robot": here the
+// robot's jog buttons (its Fig. 14 a-c moved the robot with its buttons), pressed for 0.9 s
+// every second, the groups of buttons taking turns. Each starts away from the switches of the
+// home pose.
+struct ActionSet {
+  const char* name;
+  std::array<std::vector<const char*>, 2> presses;
+};
+const std::array<ActionSet, 5> kActionSets{{
+    {"J2 back and forth", {{{"j2+"}, {"j2-"}}}},
+    {"J3 back and forth", {{{"j3+"}, {"j3-"}}}},
+    {"Z down and up", {{{"z-"}, {"z+"}}}},
+    {"J2 and J3 together", {{{"j2+", "j3-"}, {"j2-", "j3+"}}}},
+    {"Z, J2 and J3 together", {{{"z-", "j2-", "j3+"}, {"z+", "j2+", "j3-"}}}},
+}};
+
+Status run_action_set(EmulatorSide& side, const ActionSet& set, double seconds) {
+  const auto until = std::chrono::steady_clock::now() + std::chrono::duration<double>(seconds);
+  for (int k = 0; std::chrono::steady_clock::now() < until; ++k) {
+    for (const char* b : set.presses[static_cast<std::size_t>(k % 2)]) {
+      if (Status s = side.press(b, 900); !s) return s;
+    }
+    std::this_thread::sleep_for(1000ms);
+  }
+  std::this_thread::sleep_for(300ms);
+  return Ok{};
+}
+
+struct MappingResult {
+  std::string name;
+  LatencyFigures mixed;
+  std::int64_t mixed_lost = 0;
+  double mixed_bytes = 0.0;  // bytes on the wire per line received (almost all ST)
+  LatencyFigures single;
+  std::int64_t single_lost = 0;
+  double single_bytes = 0.0;  // bytes on the wire per sample (the six lines)
+};
+
+// The "traditional single-class" twin: the robot reports one value per line (the firmware's
+// setting 10 = 2: t, z, y, x, w, g), and the twin identifies each line by its letter and loads
+// each joint value into the virtual robot as it comes, one simulator packet per value (the
+// pose so far), so the virtual robot shows a sample once the packet of its last joint (w) is
+// applied. The mapping delay of a sample runs from the robot's sample time (the t line, its
+// clock aligned as the mixed side's) to that apply time.
+class SingleClassTwin {
+ public:
+  SingleClassTwin(const RobotModel& model, transport::Link& robot, transport::SimChannel& sim,
+                  double period_us)
+      : model_(model),
+        robot_(robot),
+        sim_(sim),
+        period_us_(period_us),
+        zero_(companion_zero(model)) {
+    robot_.set_packet_handler([this](transport::RxPacket&& p) { on_line(p); });
+  }
+  ~SingleClassTwin() {
+    robot_.set_packet_handler(nullptr);
+    std::this_thread::sleep_for(100ms);  // a handler running on the io thread ends
+  }
+  SingleClassTwin(const SingleClassTwin&) = delete;
+  SingleClassTwin& operator=(const SingleClassTwin&) = delete;
+
+  // Starts a new recording (the samples before it are forgotten).
+  void begin() {
+    std::lock_guard<std::mutex> lock(mu_);
+    records_.clear();
+    bytes_ = 0;
+    t_bytes_ = 0;
+    samples_ = 0;
+    recording_ = true;
+  }
+  // The samples of the recording: one record per sample the virtual robot showed whole.
+  // *bytes_per_sample: the six lines' bytes; *t_line_bytes: the t line's.
+  std::vector<LatencyRecord> end(double* bytes_per_sample, double* t_line_bytes) {
+    std::this_thread::sleep_for(300ms);  // the last applies
+    std::lock_guard<std::mutex> lock(mu_);
+    recording_ = false;
+    std::vector<LatencyRecord> out;
+    for (const LatencyRecord& r : records_)
+      if (r.sim_apply_us != 0) out.push_back(r);
+    const double n = static_cast<double>(std::max<std::size_t>(samples_, 1));
+    *bytes_per_sample = static_cast<double>(bytes_) / n;
+    *t_line_bytes = static_cast<double>(t_bytes_) / n;
+    return out;
+  }
+
+ private:
+  void on_line(const transport::RxPacket& p) {
+    if (p.line.size() < 2) return;
+    const char letter = p.line[0];
+    long long v = 0;
+    if (std::sscanf(p.line.c_str() + 1, "%lld", &v) != 1) return;
+    std::unique_lock<std::mutex> lock(mu_);
+    if (recording_) bytes_ += p.line.size() + 1;
+    switch (letter) {
+      case 't': {
+        // a new sample: its number from the robot's clock (the firmware's grid), so a sample
+        // that did not fit the transmit buffer shows as a gap
+        if (!have_t0_) {
+          t0_ = v;
+          have_t0_ = true;
+        }
+        if (v < last_t_) wraps_ += 1LL << 32;
+        last_t_ = v;
+        const double k = std::round(static_cast<double>(v + wraps_ - t0_) / period_us_);
+        seq_ = static_cast<std::int64_t>(k) % 65536;
+        t_dev_ = v;
+        t_rx_us_ = p.steady_us;
+        got_ = 1;
+        if (recording_) {
+          ++samples_;
+          t_bytes_ += p.line.size() + 1;
+        }
+        return;
+      }
+      case 'z':
+      case 'y':
+      case 'x': {
+        const int axis = letter == 'z' ? 0 : letter == 'y' ? 1 : 2;
+        steps_[axis] = static_cast<double>(zero_[static_cast<std::size_t>(axis)] + v);
+        got_ |= 2 << axis;
+        break;
+      }
+      case 'w':
+        wrist_deg_ = static_cast<double>(v) / 100.0;
+        got_ |= 16;
+        break;
+      default:
+        return;  // g: the gripper, which these action sets do not move; anything else
+    }
+    if (!whole_) {
+      whole_ = got_ == 31;  // nothing goes to the virtual robot before one whole sample
+      if (!whole_) return;
+    }
+    // one packet per value, as it comes
+    protocol::JointData jd;
+    jd.seq = static_cast<std::uint16_t>(seq_);
+    jd.t_us = static_cast<std::uint32_t>(p.steady_us);
+    jd.q = motors_to_joints(model_, steps_, wrist_deg_);
+    const bool last = letter == 'w' && got_ == 31 && recording_;
+    std::size_t index = 0;
+    if (last) {
+      records_.push_back({seq_, t_dev_, t_rx_us_, 0});
+      index = records_.size() - 1;
+    }
+    const std::int64_t rx_us = p.steady_us;
+    lock.unlock();
+    (void)sim_.post(
+        jd,
+        [this, last, index, rx_us](Result<transport::SimChannel::Reply>&& r) {
+          if (!last || !r) return;
+          const auto* ja = std::get_if<protocol::JointApplied>(&r->last());
+          if (ja == nullptr) return;
+          // the simulator's steady clock modulo 2^32, unwrapped near the line's arrival
+          const auto delta =
+              static_cast<std::int32_t>(ja->t_apply_us - static_cast<std::uint32_t>(rx_us));
+          std::lock_guard<std::mutex> g(mu_);
+          if (index < records_.size()) records_[index].sim_apply_us = rx_us + delta;
+        },
+        transport::Duration(2000));
+  }
+
+  const RobotModel& model_;
+  transport::Link& robot_;
+  transport::SimChannel& sim_;
+  const double period_us_;
+  const std::array<long, 3> zero_;
+  std::mutex mu_;
+  bool recording_ = false;
+  std::vector<LatencyRecord> records_;
+  std::size_t bytes_ = 0, t_bytes_ = 0, samples_ = 0;
+  bool have_t0_ = false, whole_ = false;
+  long long t0_ = 0, last_t_ = 0, wraps_ = 0, t_dev_ = 0;
+  std::int64_t seq_ = 0, t_rx_us_ = 0;
+  int got_ = 0;
+  std::array<double, kNumSteppers> steps_{};
+  double wrist_deg_ = 0.0;
+};
+
+// Reads what the robot answers on a raw link until it falls quiet.
+void drain(transport::Link& link) {
+  while (link.receive(transport::Duration(100))) {
+  }
+}
+
+Result<std::vector<MappingResult>> measure_mapping(const RobotModel& model, const BenchArgs& a,
+                                                   const std::filesystem::path& out, TwinDb& db) {
+  auto robot = start("scaratwin-robot", {"--speed", "1", "--plant", "ideal", "--camera-port", "-1"},
+                     out / "robot_mapping.log");
+  if (!robot) return robot.error();
+  auto pty = (*robot)->wait_for_line("pty: ", 30s);
+  if (!pty) return pty.error();
+  auto side_line = (*robot)->wait_for_line("side channel: ", 5s);
+  if (!side_line) return side_line.error();
+  auto sim = start("scaratwin-sim", {"--port", "0", "--http-port", "0", "--no-camera"},
+                   out / "sim_mapping.log");
+  if (!sim) return sim.error();
+  auto listening = (*sim)->wait_for_line("listening on", 30s);
+  if (!listening) return listening.error();
+  const std::size_t colon = listening->rfind(':', listening->find(" (speed"));
+  HubOptions ho;
+  ho.serial_device = pty->substr(pty->find("pty: ") + 5);
+  ho.sim_port = static_cast<std::uint16_t>(std::stoi(listening->substr(colon + 1)));
+  ho.report_rate_hz = a.report_hz;
+  auto side = EmulatorSide::connect(
+      static_cast<std::uint16_t>(std::stoi(side_line->substr(side_line->rfind(':') + 1))));
+  if (!side) return side.error();
+
+  std::vector<MappingResult> results;
+  for (int k = 0; k < a.action_sets; ++k) {
+    MappingResult r;
+    r.name = kActionSets[static_cast<std::size_t>(k)].name;
+    results.push_back(r);
+  }
+  {
+    // mixed: our twin, one ST packet per sample, one simulator packet per sample
+    auto hub = Hub::connect(model, ho, &db);
+    if (!hub) return hub.error();
+    (*hub)->set_mirror(true);
+    if (Status s = (*hub)->home(); !s) return s.error();
+    for (std::size_t k = 0; k < results.size(); ++k) {
+      MappingResult& r = results[k];
+      auto run = (*hub)->begin_run("mirror", "bench paper: mapping, mixed, " + r.name);
+      if (!run) return run.error();
+      const MirrorCounters before = (*hub)->mirror_counters();
+      const transport::LinkCounters wire_before = (*hub)->serial_counters();
+      if (Status s = run_action_set(*side, kActionSets[k], a.mapping_s); !s) return s.error();
+      const MirrorCounters after = (*hub)->mirror_counters();
+      const transport::LinkCounters wire_after = (*hub)->serial_counters();
+      r.mixed_bytes = static_cast<double>(wire_after.bytes_in - wire_before.bytes_in) /
+                      static_cast<double>(std::max<std::uint64_t>(
+                          wire_after.packets_in - wire_before.packets_in, 1));
+      (void)(*hub)->end_run(true);
+      auto lat = db.latencies(*run);
+      if (!lat) return lat.error();
+      // the robot's clock aligned as the baud part's, with the wire time of the reports as
+      // they were (about 38 bytes near home, where the baud part takes 55, the longest)
+      r.mixed = latency_figures(*lat, r.mixed_bytes * 10.0 / uart_baud(115200));
+      r.mixed_lost = static_cast<std::int64_t>(after.lost - before.lost);
+    }
+    if (Status s = (*hub)->wait_idle(30.0); !s) return s.error();
+  }
+  // single-class: the robot's reports one value per line, the twin loading them one by one
+  transport::SerialOptions so;
+  so.device = ho.serial_device;
+  auto link = transport::SerialLink::create(so);
+  if (!link) return link.error();
+  if (Status s = (*link)->wait_connected(transport::Duration(3000)); !s) return s.error();
+  (void)(*link)->send("SR=0=\n");
+  drain(**link);
+  (void)(*link)->send("CF=10=2=\n");
+  drain(**link);
+  transport::TcpClientOptions to;
+  to.host = "127.0.0.1";
+  to.port = ho.sim_port;
+  auto tcp = transport::TcpClient::create(to);
+  if (!tcp) return tcp.error();
+  if (Status s = (*tcp)->wait_connected(transport::Duration(3000)); !s) return s.error();
+  transport::SimChannel sim_channel(**tcp);
+  if (auto hi = sim_channel.request(protocol::Hello{}, transport::Duration(3000)); !hi) {
+    return hi.error();
+  }
+  if (auto m = sim_channel.request(protocol::SetMode{protocol::SimMode::kMirror},
+                                   transport::Duration(3000));
+      !m) {
+    return m.error();
+  }
+  {
+    SingleClassTwin twin(model, **link, sim_channel, 1e6 / a.report_hz);
+    if (Status s = (*link)->send(fmt::format("SR={}=\n", a.report_hz)); !s) return s.error();
+    std::this_thread::sleep_for(300ms);
+    for (std::size_t k = 0; k < results.size(); ++k) {
+      twin.begin();
+      if (Status s = run_action_set(*side, kActionSets[k], a.mapping_s); !s) return s.error();
+      double t_line_bytes = 0.0;
+      auto records = twin.end(&results[k].single_bytes, &t_line_bytes);
+      // the t line is the first line after the sample: its wire time is the earliest arrival
+      results[k].single = latency_figures(records, t_line_bytes * 10.0 / uart_baud(115200));
+      results[k].single_lost = results[k].single.lost_frames;
+    }
+  }
+  (void)(*link)->send("SR=0=\nCF=10=0=\n");
+  drain(**link);
+  return results;
+}
+
 std::string plot(const std::vector<RateResult>& results, int report_hz) {
   std::vector<svg::Series> s(3);
   s[0] = {"latency p50", "#1f77b4", {}, {}, false};
@@ -319,9 +617,16 @@ int run_bench_paper(const CommonOptions& common, const BenchArgs& a) {
       return kExitUsage;
     }
   }
-  if (!a.only.empty() && a.only != "baud" && a.only != "control") {
-    std::fprintf(stderr, "scaratwin bench paper: --only '%s': expected baud or control\n",
+  if (!a.only.empty() && a.only != "baud" && a.only != "control" && a.only != "mapping") {
+    std::fprintf(stderr, "scaratwin bench paper: --only '%s': expected baud, control or mapping\n",
                  a.only.c_str());
+    return kExitUsage;
+  }
+  if (a.action_sets < 1 || a.action_sets > 5 || !(a.mapping_s > 0.0)) {
+    std::fprintf(stderr,
+                 "scaratwin bench paper: --action-sets %d, --mapping-seconds %g: expected 1..5 "
+                 "and > 0\n",
+                 a.action_sets, a.mapping_s);
     return kExitUsage;
   }
   if (a.targets < 1 || a.targets > 5) {
@@ -380,6 +685,81 @@ int run_bench_paper(const CommonOptions& common, const BenchArgs& a) {
       }
       std::ofstream(out / "control_time.svg") << svg::line_chart(
           "Fig. 15 (control): time to reach each target point", "target point", "s", cs, 560, 300);
+    }
+    fmt::print("\n");
+    std::fflush(stdout);
+  }
+  if (a.only.empty() || a.only == "mapping") {
+    fmt::print(
+        "Fig. 15, mapping: robot state -> virtual robot over {} action sets, {} Hz samples at "
+        "115200 baud, {:g} s per set and form (emulated Uno, exact robot, paced 1x)\n\n",
+        a.action_sets, a.report_hz, a.mapping_s);
+    fmt::print("{:>24} | {:>38} | {:>38}\n", "", "mixed: ST, 1 packet a sample",
+               "single-class: t z y x w g, 4 packets");
+    fmt::print(
+        "{:>24} | {:>6} {:>4} {:>6} {:>6} {:>6} {:>6} | {:>6} {:>4} {:>6} {:>6} {:>6} {:>6}\n",
+        "action set (ms, bytes)", "frames", "lost", "p50", "mean", "p99", "bytes", "frames", "lost",
+        "p50", "mean", "p99", "bytes");
+    auto m = measure_mapping(*model, a, out, **db);
+    if (!m) {
+      std::fprintf(stderr, "scaratwin bench paper: mapping: %s\n", m.error().message.c_str());
+      ok = false;
+    } else {
+      nlohmann::json mj = nlohmann::json::array();
+      std::vector<svg::Series> ms(4);
+      ms[0] = {"mixed packets, mean", "#1f77b4", {}, {}, false};
+      ms[1] = {"single-class, mean", "#d62728", {}, {}, false};
+      ms[2] = {"mixed packets, p99", "#1f77b4", {}, {}, true};
+      ms[3] = {"single-class, p99", "#d62728", {}, {}, true};
+      double sum_mixed = 0.0, sum_single = 0.0;
+      for (std::size_t k = 0; k < m->size(); ++k) {
+        const MappingResult& r = (*m)[k];
+        const Stats& x = r.mixed.device_to_sim_ms;
+        const Stats& y = r.single.device_to_sim_ms;
+        if (x.count == 0 || y.count == 0) {
+          std::fprintf(stderr,
+                       "scaratwin bench paper: mapping: %s: no sample reached the "
+                       "simulator\n",
+                       r.name.c_str());
+          ok = false;
+        }
+        fmt::print(
+            "{:>24} | {:>6} {:>4} {:>6.2f} {:>6.2f} {:>6.2f} {:>6.1f} | {:>6} {:>4} {:>6.2f} "
+            "{:>6.2f} {:>6.2f} {:>6.1f}\n",
+            r.name, x.count, r.mixed_lost, x.p50, x.mean, x.p99, r.mixed_bytes, y.count,
+            r.single_lost, y.p50, y.mean, y.p99, r.single_bytes);
+        sum_mixed += x.mean;
+        sum_single += y.mean;
+        const auto stats = [](const Stats& st) {
+          return nlohmann::json{{"frames", st.count},
+                                {"p50", st.p50},
+                                {"mean", st.mean},
+                                {"p99", st.p99},
+                                {"max", st.max}};
+        };
+        mj.push_back({{"action_set", r.name},
+                      {"mixed_ms", stats(x)},
+                      {"mixed_lost", r.mixed_lost},
+                      {"mixed_bytes_per_line", r.mixed_bytes},
+                      {"single_class_ms", stats(y)},
+                      {"single_class_lost", r.single_lost},
+                      {"single_class_bytes_per_sample", r.single_bytes}});
+        const double set = static_cast<double>(k + 1);
+        for (auto& sr : ms) sr.x.push_back(set);
+        ms[0].y.push_back(x.mean);
+        ms[1].y.push_back(y.mean);
+        ms[2].y.push_back(x.p99);
+        ms[3].y.push_back(y.p99);
+      }
+      const double n = static_cast<double>(m->size());
+      fmt::print(
+          "\nmean over the action sets: mixed {:.2f} ms, single-class {:.2f} ms (single-class "
+          "{:+.2f} ms; paper: the mixed system 0.05 s faster)\n",
+          sum_mixed / n, sum_single / n, (sum_single - sum_mixed) / n);
+      std::ofstream(out / "mapping_delay.json") << mj.dump(2) << "\n";
+      std::ofstream(out / "mapping_delay.svg")
+          << svg::line_chart("Fig. 15 (mapping): robot state -> virtual robot, per action set",
+                             "action set", "ms", ms, 560, 300);
     }
     fmt::print("\n");
     std::fflush(stdout);
@@ -447,8 +827,9 @@ void add_bench_command(CLI::App& app, CommonOptions& common, Runner& run) {
   auto a = std::make_shared<BenchArgs>();
   CLI::App* paper = bench->add_subcommand(
       "paper",
-      "the paper's Section 6 on the emulated robot: Fig. 15's time to reach target points "
-      "(single-class against mixed packets), mirror latency against the serial rate (9600 .. "
+      "the paper's Section 6 on the emulated robot: Fig. 15's time to reach target points and "
+      "mapping delay (single-class against mixed packets), mirror latency against the serial rate "
+      "(9600 .. "
       "1,000,000 baud) beside the wire time of a state report");
   paper->add_option("--rates", a->rates, "serial rates to measure")
       ->delimiter(',')
@@ -459,9 +840,16 @@ void add_bench_command(CLI::App& app, CommonOptions& common, Runner& run) {
       ->capture_default_str();
   paper->add_option("--targets", a->targets, "Fig. 15 control target points (1..5)")
       ->capture_default_str();
-  paper->add_option("--only", a->only, "run one part: baud or control");
+  paper->add_option("--action-sets", a->action_sets, "Fig. 15 mapping action sets (1..5)")
+      ->capture_default_str();
+  paper
+      ->add_option("--mapping-seconds", a->mapping_s,
+                   "Fig. 15 mapping: time per action set and transmission form")
+      ->capture_default_str();
+  paper->add_option("--only", a->only, "run one part: baud, control or mapping");
   paper->add_flag("--short", a->short_form,
-                  "the short form (CI): one control target; 115200 and 1000000 baud, 3 s each");
+                  "the short form (CI): one control target; one mapping action set, 3 s each "
+                  "form; 115200 and 1000000 baud, 3 s each");
   add_common_options(*paper, common, false);
   paper->callback([&common, &run, a] {
     run = [&common, a] {
@@ -470,6 +858,8 @@ void add_bench_command(CLI::App& app, CommonOptions& common, Runner& run) {
         args.rates = {115200, 1000000};
         args.seconds = 3.0;
         args.targets = 1;
+        args.action_sets = 1;
+        args.mapping_s = 3.0;
       }
       return run_bench_paper(common, args);
     };
