@@ -64,6 +64,7 @@ struct DemoArgs {
   long long as_built_seed = -1;  // the emulated robot's build (-1: the description's)
   std::string mqtt;              // publish the demo's state on this broker (docs/fleet.md)
   bool mqtt_given = false;       // --mqtt without a URL: start a Mosquitto of our own
+  long long layout_seed = -1;    // cubes at random spots of the workspace (-1: --seed's layout)
   // set by run_demo
   std::string base_config;
   std::filesystem::path out_dir;
@@ -260,7 +261,15 @@ Result<DemoOutcome> run_phases(Hub& hub, TwinDb& db, const DemoArgs& a, std::int
 
   // 4. prediction: the sorting task in the simulator with physics.
   step(4, kSteps, "digital prediction: camera shot, colour recognition, sorting simulated");
-  const std::vector<SortItem> layout = cube_layout(a.seed, a.cubes);
+  std::vector<SortItem> layout = cube_layout(a.seed, a.cubes);
+  if (a.layout_seed >= 0) {
+    // spots the arm, where the control phase left it, would hide from the cameras are left out
+    auto r =
+        random_layout(model, static_cast<std::uint64_t>(a.layout_seed), a.cubes, hub.physical().q);
+    if (!r) return r.error();
+    layout = std::move(*r);
+    fmt::print("    layout seed {}: cubes at random spots of the workspace\n", a.layout_seed);
+  }
   std::vector<SortItem> where = layout;  // where the virtual twins of the cubes go
   SortPlan plan;
   std::int64_t prediction = 0;
@@ -377,6 +386,12 @@ Result<DemoOutcome> run_phases(Hub& hub, TwinDb& db, const DemoArgs& a, std::int
     auto n = hub.run_trajectory(plan.trajectory);
     if (!n) return n.error();
     const std::uint64_t replay_to_us = monotonic_us();
+    const double replay_s = static_cast<double>(replay_to_us - replay_from_us) / 1e6;
+    hub.record_metric("replay_s_per_cube", replay_s / static_cast<double>(layout.size()), "s");
+    fmt::print(
+        "    replay: {:.1f} s on the robot, {:.1f} s per cube (the plan: {:.1f} s per cube)\n",
+        replay_s, replay_s / static_cast<double>(layout.size()),
+        plan.trajectory.duration_s() / static_cast<double>(layout.size()));
     std::this_thread::sleep_for(700ms);
     const MirrorCounters after = hub.mirror_counters();
     out.lost_frames += after.lost - before.lost;
@@ -636,6 +651,10 @@ void add_demo_command(CLI::App& app, CommonOptions& common, Runner& run) {
                 "(docs/calibration.md); --no-calibrate runs on the description as it is");
   cmd->add_option("--as-built-seed", a->as_built_seed,
                   "emulated robot: the seed of its build (default: the description's)")
+      ->check(CLI::Range(0LL, 2147483647LL));
+  cmd->add_option("--layout-seed", a->layout_seed,
+                  "put the cubes at random reachable, non-overlapping spots of the workspace drawn "
+                  "from this seed (default: --seed's spots on the free side of the table)")
       ->check(CLI::Range(0LL, 2147483647LL));
   CLI::Option* mqtt =
       cmd->add_option("--mqtt", a->mqtt,

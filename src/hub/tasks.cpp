@@ -1,7 +1,11 @@
 #include "scaratwin/hub/tasks.hpp"
 
+#include <algorithm>
+#include <array>
 #include <chrono>
 #include <cmath>
+#include <numbers>
+#include <random>
 #include <thread>
 
 #include <fmt/format.h>
@@ -134,6 +138,91 @@ Result<SortPlan> plan_sorting(const RobotModel& model, const JointVector& start,
   }
   if (Status s = check_limits(model, plan.trajectory); !s) return s.error();
   return plan;
+}
+
+namespace {
+
+// Distance in the table's plane from (x, y) to the segment a-b.
+double to_segment(double x, double y, const std::array<double, 2>& a,
+                  const std::array<double, 2>& b) {
+  const double dx = b[0] - a[0], dy = b[1] - a[1];
+  const double len2 = dx * dx + dy * dy;
+  double u = len2 > 0.0 ? ((x - a[0]) * dx + (y - a[1]) * dy) / len2 : 0.0;
+  u = std::clamp(u, 0.0, 1.0);
+  return std::hypot(x - (a[0] + u * dx), y - (a[1] + u * dy));
+}
+
+}  // namespace
+
+Result<std::vector<SortItem>> random_layout(const RobotModel& model, std::uint64_t seed, int cubes,
+                                            const JointVector& arm, double min_gap_m) {
+  std::mt19937_64 rng(seed);
+  const double a1 = model.dh[0].a_m;
+  const double reach = model.dh[1].a_m + model.dh[2].a_m;
+  const double cube = model.scene.cube_size_m;
+  std::uniform_real_distribution<double> radius(0.45 * reach, 0.92 * reach);
+  std::uniform_real_distribution<double> angle(-0.5 * std::numbers::pi, 0.5 * std::numbers::pi);
+  const CameraModel& cam = model.scene.camera;
+  // the arm seen from above: column -> shoulder axis -> elbow -> wrist
+  const double a2 = model.dh[1].a_m, a3 = model.dh[2].a_m;
+  const std::array<double, 2> column{0.0, 0.0}, shoulder{a1, 0.0};
+  const std::array<double, 2> elbow{a1 + a2 * std::cos(arm[1]), a2 * std::sin(arm[1])};
+  const std::array<double, 2> wrist{elbow[0] + a3 * std::cos(arm[1] + arm[2]),
+                                    elbow[1] + a3 * std::sin(arm[1] + arm[2])};
+  const auto spot_ok = [&](double x, double y) {
+    if (std::hypot(x, y) < 0.06) return false;
+    if (to_segment(x, y, column, shoulder) < kArmClearance_m ||
+        to_segment(x, y, shoulder, elbow) < kArmClearance_m ||
+        to_segment(x, y, elbow, wrist) < kArmClearance_m) {
+      return false;  // under the arm: the cameras would not see it
+    }
+    for (const Tray& t : model.scene.trays) {
+      const double margin = 0.5 * t.size_m + cube;
+      if (std::abs(x - t.x_m) < margin && std::abs(y - t.y_m) < margin) return false;
+    }
+    double col = 0.0, row = 0.0;
+    if (!project(cam, cam.width_px, cam.height_px, {x, y, model.scene.table_z_m + 0.5 * cube}, col,
+                 row)) {
+      return false;
+    }
+    const double edge = 0.05 * cam.width_px;
+    if (col < edge || row < edge || col > cam.width_px - edge || row > cam.height_px - edge) {
+      return false;
+    }
+    for (double yaw : {0.0, 0.5 * std::numbers::pi, std::numbers::pi, -0.5 * std::numbers::pi}) {
+      ToolPose pose;
+      pose.x_m = x;
+      pose.y_m = y;
+      pose.z_m = model.scene.grasp_z_m;
+      pose.yaw_rad = yaw;
+      if (inverse(model, pose, model.home)) return true;
+    }
+    return false;
+  };
+  std::vector<SortItem> out;
+  for (int c = 0; c < cubes; ++c) {
+    bool placed = false;
+    for (int attempt = 0; attempt < 1000 && !placed; ++attempt) {
+      const double r = radius(rng);
+      const double a = angle(rng);
+      const SortItem it{static_cast<CubeColor>(c % kNumColors), a1 + r * std::cos(a),
+                        r * std::sin(a), 0.0};
+      if (!spot_ok(it.x_m, it.y_m)) continue;
+      bool apart = true;
+      for (const SortItem& o : out)
+        apart = apart && std::hypot(o.x_m - it.x_m, o.y_m - it.y_m) > min_gap_m;
+      if (!apart) continue;
+      out.push_back(it);
+      placed = true;
+    }
+    if (!placed) {
+      return task_error(
+          fmt::format("random layout (seed {}): no free spot for cube {} of {} in "
+                      "1000 draws (fewer cubes, or a smaller gap than {:.3f} m)",
+                      seed, c + 1, cubes, min_gap_m));
+    }
+  }
+  return out;
 }
 
 Result<std::vector<SortItem>> recognise_cubes(Hub& hub, const RobotModel& model) {

@@ -4,6 +4,7 @@
 // prediction). Each returns the figures the paper reports.
 #pragma once
 
+#include <cstdint>
 #include <vector>
 
 #include "scaratwin/hub/hub.hpp"
@@ -47,6 +48,19 @@ struct SortPlan {
 };
 Result<SortPlan> plan_sorting(const RobotModel& model, const JointVector& start,
                               const std::vector<SortItem>& items, double speed_scale = 1.0);
+
+// A random layout of `cubes` cubes (red, green, blue, in colour order) drawn from `seed`: each
+// at a spot of the paper's workspace that the robot reaches at grasp height with some wrist
+// heading (0, 90, 180 or -90 deg), 0.45-0.92 of the arm's reach around the shoulder axis on the
+// camera's side, at least 6 cm from the column, off the trays (half a tray plus a cube from
+// their centres), in the overhead camera's picture (5 % from its edges), at least
+// kArmClearance_m in the table's plane from the arm standing at `arm` (where it is when the
+// cameras look: what it hides they cannot find), and more than `min_gap_m` from every other
+// cube, centre to centre (room for the gripper's fingers). The same seed and arm give the
+// same layout. An error (the tasks' code, 90) when 1000 draws find no spot for a cube.
+inline constexpr double kArmClearance_m = 0.05;
+Result<std::vector<SortItem>> random_layout(const RobotModel& model, std::uint64_t seed, int cubes,
+                                            const JointVector& arm, double min_gap_m = 0.045);
 
 // Cubes from a camera picture (the paper's colour recognition).
 Result<std::vector<SortItem>> recognise_cubes(Hub& hub, const RobotModel& model);
