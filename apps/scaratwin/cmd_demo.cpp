@@ -528,6 +528,7 @@ int run_demo(const CommonOptions& common, const DemoArgs& a) {
   ro.http_port = a.http_port;
   ro.robot_speed = a.robot_speed;
   ro.mqtt = mqtt;
+  ro.companion = a.keep_open;  // the paper's own scripts may drive the scene left open
   if (a.as_built_seed >= 0) {
     ro.as_built_seed = static_cast<std::uint64_t>(a.as_built_seed);
     // the build the emulator draws (the report compares the calibration with it)
@@ -634,7 +635,9 @@ void add_demo_command(CLI::App& app, CommonOptions& common, Runner& run) {
                   "(e.g. /dev/ttyACM0)");
   cmd->add_option("--out", a->out, "folder for the database, report, CSV and logs")
       ->capture_default_str();
-  cmd->add_flag("--keep-open", a->keep_open, "leave the simulator and its UI running at the end");
+  cmd->add_flag("--keep-open", a->keep_open,
+                "leave the simulator and its UI running at the end; the simulator also serves the "
+                "paper's companion TCP dialect on 127.0.0.1 (its port printed at the start)");
   cmd->add_option("--http-port", a->http_port, "port of the browser UI (0: none)")
       ->capture_default_str();
   cmd->add_option("--robot-speed", a->robot_speed,

@@ -1,6 +1,7 @@
 #include "rig.hpp"
 
 #include <chrono>
+#include <cstdio>
 #include <vector>
 
 #include <fmt/format.h>
@@ -23,13 +24,23 @@ Result<Rig> start_rig(const RigOptions& o, const std::filesystem::path& log_dir)
   std::vector<std::string> sim_args{"--port", "0", "--http-port", std::to_string(o.http_port)};
   if (!o.config_path.empty()) sim_args.insert(sim_args.end(), {"--config", o.config_path});
   if (!o.mqtt.empty() && o.http_port != 0) sim_args.insert(sim_args.end(), {"--mqtt", o.mqtt});
-  auto sim = ChildProcess::start(sibling_executable("scaratwin-sim"), sim_args, log_dir / "sim.log");
+  if (o.companion) sim_args.insert(sim_args.end(), {"--companion-port", "0"});
+  auto sim =
+      ChildProcess::start(sibling_executable("scaratwin-sim"), sim_args, log_dir / "sim.log");
   if (!sim) return sim.error();
   rig.sim = std::move(*sim);
   auto listening = rig.sim->wait_for_line("listening on", 30s);
   if (!listening) return Error{1, "simulator: " + listening.error().message};
   const size_t colon = listening->rfind(':', listening->find(" (speed"));
   rig.sim_port = static_cast<std::uint16_t>(std::stoi(listening->substr(colon + 1)));
+  if (o.companion) {
+    // the paper's MATLAB/Octave scripts (docs/protocol.md section 13.1); loopback only
+    auto c = rig.sim->wait_for_line("companion dialect on ", 5s);
+    if (!c) return Error{1, "simulator: " + c.error().message};
+    rig.companion_port = static_cast<std::uint16_t>(std::stoi(c->substr(c->rfind(':') + 1)));
+    fmt::print("companion dialect (the paper's scripts): 127.0.0.1:{}\n", rig.companion_port);
+    std::fflush(stdout);
+  }
   if (o.http_port != 0) {
     if (auto ui = rig.sim->wait_for_line("http://", 5s); ui) {
       rig.ui_url = ui->substr(ui->find("http://"));

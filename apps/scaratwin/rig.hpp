@@ -25,7 +25,8 @@ struct RigOptions {
   std::optional<std::uint64_t> as_built_seed;  // the emulated robot's build
   std::string camera;                          // a real robot's webcam as host:port
   double truth_hz = 200.0;                     // the emulated robot's truth recorder
-  std::string mqtt;  // the broker whose fleet the simulator's fleet page shows (empty: none)
+  std::string mqtt;        // the broker whose fleet the simulator's fleet page shows (empty: none)
+  bool companion = false;  // the simulator also serves the paper's companion TCP dialect
 };
 
 struct Rig {
@@ -35,7 +36,8 @@ struct Rig {
   std::string device;          // the serial device (or the emulator's pty)
   std::string plant = "real";  // real, as-built or ideal
   std::string ui_url;
-  std::string fleet_url;  // the fleet page (with --mqtt)
+  std::string fleet_url;             // the fleet page (with --mqtt)
+  std::uint16_t companion_port = 0;  // the companion dialect's port on 127.0.0.1 (0: off)
   std::optional<EmulatorSide> side;
   std::unique_ptr<TruthRecorder> truth;  // as-built emulated robots only
   std::unique_ptr<NetCamera> webcam;

@@ -3,11 +3,14 @@
 // the CSV it left. And a script with an error: it stops at that line and moves nothing after.
 #include <arpa/inet.h>
 #include <netinet/in.h>
+#include <signal.h>
 #include <sys/socket.h>
+#include <sys/time.h>
 #include <unistd.h>
 
 #include <chrono>
 #include <cmath>
+#include <cstdio>
 #include <filesystem>
 #include <fstream>
 #include <map>
@@ -396,6 +399,94 @@ TEST(Examples, PickOneSortsACubeFromCpp) {
   ASSERT_TRUE(done) << done.error().message;
   EXPECT_EQ(status, 0);
   EXPECT_GT(fs::file_size(dir / "picture.png"), 1000u);
+}
+
+// The processes whose parent is `pid` (from /proc): the demo's simulator and emulated robot.
+std::vector<pid_t> children_of(pid_t pid) {
+  std::vector<pid_t> out;
+  for (const auto& e : fs::directory_iterator("/proc")) {
+    const std::string name = e.path().filename().string();
+    if (name.find_first_not_of("0123456789") != std::string::npos) continue;
+    std::ifstream stat(e.path() / "stat");
+    std::string line;
+    if (!std::getline(stat, line)) continue;
+    // pid (comm) state ppid ...: comm may hold spaces, so read after its closing parenthesis
+    const auto close = line.rfind(')');
+    if (close == std::string::npos) continue;
+    std::istringstream rest(line.substr(close + 1));
+    std::string state;
+    long ppid = 0;
+    if (rest >> state >> ppid && ppid == pid) out.push_back(static_cast<pid_t>(std::stol(name)));
+  }
+  return out;
+}
+
+// `scaratwin demo --keep-open`: the simulator serves the paper's companion TCP dialect on
+// loopback, its port printed with the other addresses at the start, so the paper's own
+// MATLAB/Octave scripts can drive the scene the demo leaves open. Checked while the demo runs
+// (the dialect is up from the start): a camera frame answers the overhead camera's PNG at the
+// description's size.
+TEST(DemoKeepOpen, ServesTheCompanionDialectOnLoopback) {
+  const fs::path out = fresh_dir("demo-keep-open");
+  auto demo = ChildProcess::start(kBin / "scaratwin",
+                                  {"demo", "--keep-open", "--out", out.string(), "--http-port", "0",
+                                   "--cubes", "1", "--no-calibrate"},
+                                  out / "demo.log");
+  ASSERT_TRUE(demo) << demo.error().message;
+  auto line = (*demo)->wait_for_line("companion dialect (the paper's scripts): ", 60s);
+  // the simulator and the emulated robot go first, then the demo (it ends on SIGTERM only
+  // once its phases are over: the kill ends it here)
+  const auto stop_all = [&] {
+    for (pid_t c : children_of((*demo)->pid())) ::kill(c, SIGTERM);
+    (*demo)->stop(std::chrono::milliseconds(3000));
+  };
+  if (!line) stop_all();
+  ASSERT_TRUE(line) << line.error().message;
+  const auto at = line->find("127.0.0.1:");
+  ASSERT_NE(at, std::string::npos) << *line;
+  const int port = std::stoi(line->substr(at + 10));
+
+  const int fd = ::socket(AF_INET, SOCK_STREAM, 0);
+  ASSERT_GE(fd, 0);
+  timeval tv{20, 0};
+  ::setsockopt(fd, SOL_SOCKET, SO_RCVTIMEO, &tv, sizeof tv);
+  sockaddr_in addr{};
+  addr.sin_family = AF_INET;
+  addr.sin_port = htons(static_cast<std::uint16_t>(port));
+  addr.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
+  ASSERT_EQ(::connect(fd, reinterpret_cast<sockaddr*>(&addr), sizeof addr), 0);
+  std::string frames;
+  for (const std::string payload : {"Name:keep-open test", "Camera:Center,C:/images,image"}) {
+    frames.push_back(static_cast<char>(payload.size()));
+    frames += payload;
+  }
+  ASSERT_EQ(::send(fd, frames.data(), frames.size(), MSG_NOSIGNAL),
+            static_cast<ssize_t>(frames.size()));
+  // the reply is the PNG file's bytes, raw: read up to its IEND chunk
+  std::string png;
+  char buf[65536];
+  const std::string iend("IEND\xae\x42\x60\x82", 8);
+  while (png.find(iend) == std::string::npos) {
+    const ssize_t n = ::recv(fd, buf, sizeof buf, 0);
+    if (n <= 0) break;
+    png.append(buf, static_cast<size_t>(n));
+  }
+  ::close(fd);
+  stop_all();
+  ASSERT_GT(png.size(), 33u) << "no PNG came back";
+  EXPECT_EQ(png.substr(0, 8), std::string("\x89PNG\r\n\x1a\n", 8));
+  EXPECT_EQ(png.substr(12, 4), "IHDR");
+  const auto be32 = [&](size_t i) {
+    return (static_cast<std::uint32_t>(static_cast<unsigned char>(png[i])) << 24) |
+           (static_cast<std::uint32_t>(static_cast<unsigned char>(png[i + 1])) << 16) |
+           (static_cast<std::uint32_t>(static_cast<unsigned char>(png[i + 2])) << 8) |
+           static_cast<std::uint32_t>(static_cast<unsigned char>(png[i + 3]));
+  };
+  auto model = load_robot_config(SCARATWIN_CONFIG_FILE);
+  ASSERT_TRUE(model);
+  EXPECT_EQ(be32(16), static_cast<std::uint32_t>(model->scene.camera.width_px));
+  EXPECT_EQ(be32(20), static_cast<std::uint32_t>(model->scene.camera.height_px));
+  EXPECT_NE(png.find(iend), std::string::npos) << "the PNG ended early";
 }
 
 }  // namespace
