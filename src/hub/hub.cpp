@@ -610,7 +610,11 @@ Status Hub::stop(double timeout_s) {
 }
 
 Status Hub::wait_stopped(std::uint64_t mark, double timeout_s) {
-  // the confirmation is waited for even when interrupted: interrupt() calls this
+  // the confirmation is waited for even when interrupted: interrupt() calls this. Its
+  // deadline is the link's reply timeout: a robot that answers no request in that time is
+  // gone, one that does is stopping (an emulated one on a busy computer may take longer
+  // than its real deceleration)
+  if (timeout_s <= 0) timeout_s = options_.reply_timeout_s;
   std::unique_lock<std::mutex> lock(mu_);
   const auto stopped = [&] {
     for (const auto& [n, ev] : events_) {
@@ -704,7 +708,7 @@ Result<int> Hub::run_trajectory(const JointTrajectory& traj, double timeout_s) {
       std::lock_guard<std::mutex> lock(mu_);
       if (!motion_abort_.empty()) sent_at = abort_mark_;
     }
-    const Status stopped = sent_at ? wait_stopped(*sent_at, 1.0) : stop();
+    const Status stopped = sent_at ? wait_stopped(*sent_at, 0.0) : stop();
     return hub_error(fmt::format(
         "{}; {}", what, stopped ? std::string("the robot was stopped") : stopped.error().message));
   };

@@ -150,9 +150,10 @@ class Hub {
   // The stop statement: stops the robot at once ('!': the queue dropped, the step pulses end
   // within 50 us) and waits until it confirms (EV 6). It is then halted: home() or the next
   // trajectory (recover()) clears that. Fails when no confirmation comes within `timeout_s`
-  // (the link is cut, or the robot is gone); a robot that hears nothing from its host stops
+  // (0: the reply timeout of HubOptions, the same rule as for any request: the link is cut,
+  // or the robot is gone); a robot that hears nothing from its host stops
   // by itself when its queue of points runs out (15 points: 0.3 s to a few seconds).
-  Status stop(double timeout_s = 1.0);
+  Status stop(double timeout_s = 0.0);
   // Ctrl-C: stops the robot and makes the statement in progress (and every later wait of
   // this hub: trajectories, homing, sleep()) fail at once with "interrupted". Safe from any
   // thread (not from a signal handler).
