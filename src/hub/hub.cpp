@@ -29,6 +29,10 @@ constexpr double kDesyncWindowS = 1.5;
 
 constexpr const char* kInterrupted = "interrupted";
 
+// A robot link silent this long during a trajectory ends it whatever the silence was: the
+// robot's queue (at most 63 points of 20 ms) has run out by then on a cut link.
+constexpr double kRobotSilenceAbortS = 1.5;
+
 // The hub's hello to the simulator: with a token it says it means to control (security.md).
 pr::Hello sim_hello(const HubOptions& o) {
   const std::string role =
@@ -54,6 +58,12 @@ Hub::Hub(const RobotModel& model, const HubOptions& options, TwinDb* db)
     : model_(model), options_(options), db_(db), report_dir_(homed_directions(model)) {}
 
 Hub::~Hub() {
+  {
+    std::lock_guard<std::mutex> lock(mu_);
+    watchdog_quit_ = true;
+    cv_.notify_all();
+  }
+  if (watchdog_.joinable()) watchdog_.join();
   // statements and channels first (they hold the links' handlers), then the links, then the
   // io thread.
   statements_.reset();
@@ -90,7 +100,14 @@ Result<std::unique_ptr<Hub>> Hub::connect(const RobotModel& model, const HubOpti
                                  s.error().message));
   }
   t->robot_ = std::make_unique<tr::RobotChannel>(*t->serial_, tr::robot_channel_defaults());
-  t->sim_ = std::make_unique<tr::SimChannel>(*t->tcp_);
+  // the simulator link's heartbeat: a simulator that hangs with its socket open (stopped,
+  // deadlocked) is noticed within 1.2 s like one that died (docs/protocol.md section 11); a
+  // camera shot may take its own timeout (render and PNG on a busy machine)
+  tr::ChannelOptions sim_channel;
+  sim_channel.heartbeat = milliseconds(200);
+  sim_channel.dead_after = milliseconds(1000);
+  sim_channel.slow_codes = {"CS"};
+  t->sim_ = std::make_unique<tr::SimChannel>(*t->tcp_, sim_channel);
   tr::TwinOptions so_statements;
   so_statements.reply_timeout = ms(o.reply_timeout_s);
   // the robot's periodic reports share the 115200 baud line with the credit polls' replies;
@@ -142,6 +159,12 @@ Result<std::unique_ptr<Hub>> Hub::connect(const RobotModel& model, const HubOpti
   }
   auto sr = t->robot_->request(pr::SetReportRate{o.report_rate_hz}, milliseconds(1000));
   if (!sr) return hub_error(fmt::format("set report rate: {}", sr.error().message));
+  if (o.report_rate_hz > 0 && o.robot_silence_s > 0.0) {
+    std::lock_guard<std::mutex> lock(t->mu_);
+    t->silence_limit_s_ = std::max(o.robot_silence_s, 10.0 / o.report_rate_hz);
+    t->last_robot_rx_us_ = tr::steady_now_us();
+  }
+  t->watchdog_ = std::thread([raw] { raw->watch_robot_link(); });
   return t;
 }
 
@@ -209,42 +232,59 @@ void Hub::set_mirror(bool on) {
 }
 
 void Hub::on_sim_link(tr::LinkState state) {
-  const bool up = state == tr::LinkState::kConnected;
+  if (state == tr::LinkState::kConnected) {
+    // a new connection: the hello again (the simulator admits a client on it, with the token
+    // when it asks for one). The simulator counts as back once it answers: a hung one accepts
+    // connections in its kernel and never answers (the heartbeat drops those again).
+    (void)sim_->post(sim_hello(options_), [this](Result<tr::SimChannel::Reply>&& r) {
+      if (r) {
+        on_sim_answered();
+      } else if (r.error().code == pr::kErrAccess) {
+        std::fprintf(stderr, "scaratwin: the simulator refused the hub: %s\n",
+                     access_refusal(r.error().message, options_).c_str());
+      }
+    });
+    return;
+  }
+  // a hung simulator's connection was ended by the heartbeat: say so
+  const std::string dropped = sim_->last_drop_reason();
+  const std::string what = dropped.empty() ? std::string("the simulator link was lost")
+                                           : "the simulator stopped answering (" + dropped + ")";
   bool stop_robot = false;
+  {
+    std::lock_guard<std::mutex> lock(mu_);
+    if (!sim_up_) return;  // a connection that never answered its hello went again
+    sim_up_ = false;
+    ++mirror_counters_.sim_link_losses;
+    if (in_motion_ && motion_abort_.empty()) {
+      motion_abort_ = fmt::format(
+          "{} (the virtual robot no longer follows)",
+          dropped.empty() ? "the simulator link was lost" : "the simulator stopped answering");
+      abort_mark_ = event_count_;  // the stop's confirmation (EV 6) comes after this
+      abort_stop_wait_s_ = 0.0;  // the reply timeout
+      stop_robot = true;
+    }
+    cv_.notify_all();
+  }
+  // the stop goes out at once from here; the statement waiting for the trajectory wakes,
+  // confirms it and fails saying why
+  if (stop_robot) (void)robot_->send_realtime(pr::Realtime::kStop);
+  std::fprintf(stderr, "scaratwin: %s%s; reconnecting\n", what.c_str(),
+               stop_robot ? " during a move: stopping the robot" : "");
+  record_event("link", stop_robot ? what + " during a move: robot stopped" : what);
+}
+
+void Hub::on_sim_answered() {
   bool mirror = false;
   {
     std::lock_guard<std::mutex> lock(mu_);
-    if (up == sim_up_) return;
-    sim_up_ = up;
+    if (sim_up_) return;
+    sim_up_ = true;
     mirror = mirror_;
-    if (!up) {
-      ++mirror_counters_.sim_link_losses;
-      if (in_motion_ && motion_abort_.empty()) {
-        motion_abort_ = "the simulator link was lost (the virtual robot no longer follows)";
-        abort_mark_ = event_count_;  // the stop's confirmation (EV 6) comes after this
-        stop_robot = true;
-      }
-      cv_.notify_all();
-    }
-  }
-  if (!up) {
-    // the stop goes out at once from here; the statement waiting for the trajectory wakes,
-    // confirms it and fails saying why
-    if (stop_robot) (void)robot_->send_realtime(pr::Realtime::kStop);
-    std::fprintf(stderr, "scaratwin: the simulator link was lost%s; reconnecting\n",
-                 stop_robot ? " during a move: stopping the robot" : "");
-    record_event("link", stop_robot ? "simulator link lost during a move: robot stopped"
-                                    : "simulator link lost");
-    return;
-  }
-  // back: a new connection, so the hello again (the simulator admits a client on it, with
-  // the token when it asks for one), and the mirror mode for a new stream of frames
-  (void)sim_->post(sim_hello(options_));
-  if (mirror) (void)sim_->post(pr::SetMode{pr::SimMode::kMirror});
-  {
-    std::lock_guard<std::mutex> lock(mu_);
     sim_grip_closed_ = false;  // a restarted simulator has its gripper open
   }
+  // the mirror mode for a new stream of frames
+  if (mirror) (void)sim_->post(pr::SetMode{pr::SimMode::kMirror});
   std::fprintf(stderr, "scaratwin: the simulator link is back\n");
   record_event("link", "simulator link back");
 }
@@ -256,7 +296,103 @@ MirrorCounters Hub::mirror_counters() const {
   return c;
 }
 
+void Hub::watch_robot_link() {
+  std::unique_lock<std::mutex> lock(mu_);
+  while (!watchdog_quit_) {
+    cv_.wait_for(lock, milliseconds(10));
+    if (watchdog_quit_ || silence_limit_s_ <= 0.0) continue;
+    const std::int64_t quiet_us = tr::steady_now_us() - last_robot_rx_us_;
+    std::string say;
+    bool stop_robot = false;
+    if (!robot_silent_ && static_cast<double>(quiet_us) >= silence_limit_s_ * 1e6) {
+      // said at once; what it was (a cut, or the robot itself stalled with its clock, as an
+      // emulator on a busy host does) shows in the robot's clock when its reports come back
+      robot_silent_ = true;
+      silence_said_ = in_motion_;  // on stderr during a move; otherwise the event log only
+      say = fmt::format(
+          "no state report from the robot for {} ms (the link cut, or the robot stalled)",
+          quiet_us / 1000);
+    } else if (robot_silent_ && in_motion_ && motion_abort_.empty() &&
+               static_cast<double>(quiet_us) >= kRobotSilenceAbortS * 1e6) {
+      // longer than the robot's queue lasts: the move is over whatever it was
+      say = fmt::format("the robot link is silent for {} ms (cut or unplugged)", quiet_us / 1000);
+      motion_abort_ = say;
+      abort_mark_ = event_count_;  // the stop's confirmation (EV 6) comes after this
+      abort_stop_wait_s_ = 0.5;    // it can only come once the link is back
+      stop_robot = true;
+      stop_owed_ = true;
+    }
+    if (say.empty()) continue;
+    const bool print = stop_robot || silence_said_;
+    cv_.notify_all();
+    lock.unlock();
+    if (stop_robot) {
+      // sent into the silence (it gets through if only the robot's side went quiet), again
+      // with the first report after it; the requests waiting for replies fail now, so the
+      // statement sending the trajectory ends at once
+      (void)robot_->send_realtime(pr::Realtime::kStop);
+      robot_->fail_pending("the robot link is silent");
+    }
+    if (print) {
+      std::fprintf(stderr, "scaratwin: %s%s\n", say.c_str(),
+                   stop_robot ? " during a move: stopping the robot" : "");
+    }
+    record_event("link", stop_robot ? say + " during a move: robot stopped" : say);
+    lock.lock();
+  }
+}
+
 void Hub::on_robot_packet(pr::SerialFromDevice&& msg, const tr::RxPacket& rx) {
+  {
+    const auto* st = std::get_if<pr::DeviceState>(&msg);
+    std::string say;
+    bool stop_robot = false;
+    bool print = false;
+    {
+      std::lock_guard<std::mutex> lock(mu_);
+      const std::int64_t gap_ms = (rx.steady_us - last_robot_rx_us_) / 1000;
+      last_robot_rx_us_ = std::max(last_robot_rx_us_, rx.steady_us);
+      if (robot_silent_ && st != nullptr) {
+        // the first report after a silence: the robot's clock tells a cut (it ran on) from
+        // a stall of the robot itself (it stood still as long)
+        robot_silent_ = false;
+        const std::uint32_t robot_ms =
+            static_cast<std::uint32_t>(st->t_us - last_robot_t_us_) / 1000u;
+        if (last_robot_t_us_ != 0 &&
+            robot_ms >= static_cast<std::uint32_t>(silence_limit_s_ * 1e3)) {
+          const std::string cut = fmt::format(
+              "the robot link was cut for {} ms of the robot's time (cut or unplugged)", robot_ms);
+          if (in_motion_ && motion_abort_.empty()) {
+            motion_abort_ = cut;
+            abort_mark_ = event_count_;
+            abort_stop_wait_s_ = 0.0;  // the reply timeout
+            stop_owed_ = true;
+          }
+          stop_robot = stop_owed_;
+          stop_owed_ = false;
+          say = fmt::format("the robot link is back after {} ms: {}{}", gap_ms, cut,
+                            stop_robot ? ": stopping the robot" : "");
+          print = true;
+        } else {
+          say = fmt::format(
+              "the robot's reports are back after {} ms; its own clock stood still as long "
+              "({} ms): the robot stalled, not the link",
+              gap_ms, robot_ms);
+          print = silence_said_;
+        }
+        cv_.notify_all();
+      }
+      if (st != nullptr) last_robot_t_us_ = st->t_us;
+    }
+    if (!say.empty()) {
+      if (stop_robot) {
+        (void)robot_->send_realtime(pr::Realtime::kStop);
+        robot_->fail_pending("the robot link was cut");
+      }
+      if (print) std::fprintf(stderr, "scaratwin: %s\n", say.c_str());
+      record_event("link", say);
+    }
+  }
   if (const auto* st = std::get_if<pr::DeviceState>(&msg)) {
     on_device_state(*st, rx);
   } else if (const auto* ev = std::get_if<pr::DeviceEvent>(&msg)) {
@@ -704,17 +840,29 @@ Result<int> Hub::run_trajectory(const JointTrajectory& traj, double timeout_s) {
   const auto give_up = [&](const std::string& what) -> Error {
     clear_tracker();
     std::optional<std::uint64_t> sent_at;  // a stop the link watcher already sent
+    double stop_wait_s = 0.0;  // the reply timeout
     {
       std::lock_guard<std::mutex> lock(mu_);
-      if (!motion_abort_.empty()) sent_at = abort_mark_;
+      if (!motion_abort_.empty()) {
+        sent_at = abort_mark_;
+        stop_wait_s = abort_stop_wait_s_;
+      }
     }
-    const Status stopped = sent_at ? wait_stopped(*sent_at, 0.0) : stop();
+    const Status stopped = sent_at ? wait_stopped(*sent_at, stop_wait_s) : stop();
     return hub_error(fmt::format(
         "{}; {}", what, stopped ? std::string("the robot was stopped") : stopped.error().message));
   };
   if (!sim_link_up()) {
     clear_tracker();
     return hub_error("the simulator link is down (reconnecting): nothing moved");
+  }
+  const bool robot_silent = [&] {
+    std::lock_guard<std::mutex> lock(mu_);
+    return robot_silent_;
+  }();
+  if (robot_silent) {
+    clear_tracker();
+    return hub_error("the robot link is silent (no state report: cut or unplugged): nothing moved");
   }
   auto load = statements_->load_trajectory(sent);
   if (interrupted_) return give_up(kInterrupted);

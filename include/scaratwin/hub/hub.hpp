@@ -26,6 +26,7 @@
 #include <mutex>
 #include <optional>
 #include <string>
+#include <thread>
 #include <vector>
 
 #include "scaratwin/core/result.hpp"
@@ -57,6 +58,10 @@ struct HubOptions {
   int desync_persist = 5;             // consecutive reports above it
   double min_point_dt_s = 0.02;       // trajectory points sent to the robot at most this dense
   double reply_timeout_s = 3.0;       // a request without reply is a lost link after this
+  // No state report for this long (at least ten report periods) is said at once; when the
+  // reports come back with the robot's clock as far on, the link was cut, and a trajectory
+  // running is stopped (docs/protocol.md section 11.1). 0: not watched.
+  double robot_silence_s = 0.15;
 };
 
 // The robot as its last state report showed it.
@@ -202,6 +207,10 @@ class Hub {
   // The simulator link went down or came back (io thread): a loss during a trajectory stops
   // the robot and fails the trajectory; a return sends the hello (and the mirror mode) again.
   void on_sim_link(transport::LinkState state);
+  // The simulator answered the hello on a new connection (io thread): the link is back.
+  void on_sim_answered();
+  // The watchdog thread: notices the robot link going silent.
+  void watch_robot_link();
   // Why the trajectory in progress must end (empty: it may go on). mu_ held.
   bool motion_aborted() const { return interrupted_ || !motion_abort_.empty(); }
   bool sim_link_up() const {
@@ -262,6 +271,16 @@ class Hub {
   bool play_reset_ = false;     // homing: start the play again from the homed sides
   // the twin's phase as last set (set_twin_phase); homing restores it when it ends
   std::atomic<protocol::TwinPhase> twin_phase_{protocol::TwinPhase::kNone};
+  // the robot link's watchdog (a cut is silence: the firmware reports periodically)
+  double silence_limit_s_ = 0.0;       // 0 until the reports are on
+  double abort_stop_wait_s_ = 0.0;     // how long a statement waits for the watcher's stop (0: reply timeout, mu_)
+  std::int64_t last_robot_rx_us_ = 0;  // (mu_)
+  std::uint32_t last_robot_t_us_ = 0;  // the robot's clock in its last report (mu_)
+  bool robot_silent_ = false;          // (mu_)
+  bool silence_said_ = false;          // the silence was said on stderr (mu_)
+  bool stop_owed_ = false;      // a stop sent into the silence, sent again when it ends (mu_)
+  bool watchdog_quit_ = false;  // (mu_)
+  std::thread watchdog_;
 };
 
 }  // namespace scaratwin
