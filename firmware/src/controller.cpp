@@ -56,7 +56,10 @@ bool g_rehoming = false;  // HM while homed: report the offsets the switches sho
 bool g_halted = false;
 volatile bool g_rt_stop = false;    // set by '!' in the receive interrupt
 volatile bool g_rt_resume = false;  // set by '~'
-bool g_stop_pending = false;        // EV 6 once the step generator confirms
+// EV 6 once the step generator confirms; set with the stop's request (for '!' in the receive
+// interrupt), so that a tick that confirms the stop before the main loop next looks at the
+// real-time flags cannot leave the confirmation unsent
+volatile bool g_stop_pending = false;
 bool g_baud_pending = false;        // CF 11 changed the rate: switch once its AK has left
 uint32_t g_baud_idle_us = 0;        // when the transmit ring was first seen empty
 
@@ -487,8 +490,7 @@ void read_serial() {
 void handle_realtime() {
   if (g_rt_stop) {
     g_rt_stop = false;
-    g_halted = true;
-    g_stop_pending = true;
+    g_halted = true;  // the confirmation was asked for in the interrupt (g_stop_pending)
     cancel_motion();
   }
   if (g_rt_resume) {
@@ -577,6 +579,7 @@ void handle_buttons(uint32_t now) {
 
 void controller_realtime(uint8_t byte) {
   if (byte == core::kRealtimeStop) {
+    g_stop_pending = true;
     stepper_request_stop();
     g_rt_stop = true;
   } else if (byte == core::kRealtimeHold) {

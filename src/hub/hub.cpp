@@ -32,6 +32,8 @@ constexpr const char* kInterrupted = "interrupted";
 // A robot link silent this long during a trajectory ends it whatever the silence was: the
 // robot's queue (at most 63 points of 20 ms) has run out by then on a cut link.
 constexpr double kRobotSilenceAbortS = 1.5;
+// A watchdog pass this much later than due: the hub itself was not running.
+constexpr std::int64_t kLatePassUs = 100000;
 
 // The hub's hello to the simulator: with a token it says it means to control (security.md).
 pr::Hello sim_hello(const HubOptions& o) {
@@ -298,10 +300,17 @@ MirrorCounters Hub::mirror_counters() const {
 
 void Hub::watch_robot_link() {
   std::unique_lock<std::mutex> lock(mu_);
+  std::int64_t last_pass_us = tr::steady_now_us();
   while (!watchdog_quit_) {
     cv_.wait_for(lock, milliseconds(10));
     if (watchdog_quit_ || silence_limit_s_ <= 0.0) continue;
-    const std::int64_t quiet_us = tr::steady_now_us() - last_robot_rx_us_;
+    const std::int64_t now_us = tr::steady_now_us();
+    // a pass that comes 100 ms late means this process was not running (a busy host): the
+    // reports that came meanwhile wait unread, so nothing is judged until the next pass
+    const bool late = now_us - last_pass_us > kLatePassUs;
+    last_pass_us = now_us;
+    if (late) continue;
+    const std::int64_t quiet_us = now_us - last_robot_rx_us_;
     std::string say;
     bool stop_robot = false;
     if (!robot_silent_ && static_cast<double>(quiet_us) >= silence_limit_s_ * 1e6) {
@@ -352,14 +361,31 @@ void Hub::on_robot_packet(pr::SerialFromDevice&& msg, const tr::RxPacket& rx) {
       std::lock_guard<std::mutex> lock(mu_);
       const std::int64_t gap_ms = (rx.steady_us - last_robot_rx_us_) / 1000;
       last_robot_rx_us_ = std::max(last_robot_rx_us_, rx.steady_us);
-      if (robot_silent_ && st != nullptr) {
-        // the first report after a silence: the robot's clock tells a cut (it ran on) from
-        // a stall of the robot itself (it stood still as long)
-        robot_silent_ = false;
-        const std::uint32_t robot_ms =
-            static_cast<std::uint32_t>(st->t_us - last_robot_t_us_) / 1000u;
-        if (last_robot_t_us_ != 0 &&
-            robot_ms >= static_cast<std::uint32_t>(silence_limit_s_ * 1e3)) {
+      if (st != nullptr) {
+        // The robot's clock against the hub's tells a cut from a stall. Reports are one
+        // period apart in the robot's clock (10 ms at 100 Hz). A cut: the robot's clock ran on
+        // by the silence limit or more between two reports received in a row, and the hub's
+        // clock saw as long a gap (at least half of it) between receiving them: the link lost
+        // the reports between. A robot that stalled (an emulator on a busy host) stops its
+        // clock too; a hub that stalled reads the reports it missed, each one period on, and
+        // when it fell so far behind that its input overflowed, the reports it lost leave a
+        // jump in the robot's clock between two reports it read in one go (no gap in its own
+        // clock): not the link's doing. The first line after a cut may be two reports spliced
+        // where the bytes were lost (the wire has no checksum): it decodes with the clock of
+        // the report before the cut, one period on, and looks like a stall; so the report after
+        // the first one after a silence is measured from the one before the silence, and a
+        // stall is said only once that second report confirms it.
+        const bool from_anchor = stall_pending_;
+        const std::uint32_t x_t_us = from_anchor ? anchor_t_us_ : last_robot_t_us_;
+        const std::int64_t x_rx_us = from_anchor ? anchor_rx_us_ : last_report_rx_us_;
+        const std::int64_t robot_ms = static_cast<std::int32_t>(st->t_us - x_t_us) / 1000;
+        const std::int64_t wall_ms = (rx.steady_us - x_rx_us) / 1000;
+        const auto limit_ms = static_cast<std::int64_t>(std::round(silence_limit_s_ * 1e3));
+        const bool jumped = robot_clock_known_ && silence_limit_s_ > 0.0 && robot_ms >= limit_ms;
+        if (jumped && 2 * wall_ms >= limit_ms) {
+          const bool after_silence = robot_silent_ || stall_pending_;
+          robot_silent_ = false;
+          stall_pending_ = false;
           const std::string cut = fmt::format(
               "the robot link was cut for {} ms of the robot's time (cut or unplugged)", robot_ms);
           if (in_motion_ && motion_abort_.empty()) {
@@ -370,19 +396,42 @@ void Hub::on_robot_packet(pr::SerialFromDevice&& msg, const tr::RxPacket& rx) {
           }
           stop_robot = stop_owed_;
           stop_owed_ = false;
-          say = fmt::format("the robot link is back after {} ms: {}{}", gap_ms, cut,
-                            stop_robot ? ": stopping the robot" : "");
+          say = fmt::format("{}: {}{}",
+                            after_silence
+                                ? fmt::format("the robot link is back after {} ms", wall_ms)
+                                : std::string("the robot's state reports skipped ahead"),
+                            cut, stop_robot ? ": stopping the robot" : "");
           print = true;
-        } else {
+          cv_.notify_all();
+        } else if (jumped) {
+          // the event log only: the move goes on
+          say = fmt::format(
+              "{} ms of the robot's state reports lost between two read {} ms apart: this host "
+              "read them late and its input overflowed (not a cut)",
+              robot_ms, wall_ms);
+        } else if (robot_silent_) {
+          // the first report after a silence, the clock one period on: a stall, unless the
+          // next report jumps from the one before the silence (this one spliced)
+          robot_silent_ = false;
+          stall_pending_ = true;
+          stall_gap_ms_ = gap_ms;
+          stall_robot_ms_ = robot_ms;
+          anchor_t_us_ = last_robot_t_us_;
+          anchor_rx_us_ = last_report_rx_us_;
+          cv_.notify_all();
+        } else if (stall_pending_) {
+          stall_pending_ = false;
           say = fmt::format(
               "the robot's reports are back after {} ms; its own clock stood still as long "
               "({} ms): the robot stalled, not the link",
-              gap_ms, robot_ms);
+              stall_gap_ms_, stall_robot_ms_);
           print = silence_said_;
         }
-        cv_.notify_all();
+        if (jumped) stall_pending_ = false;
+        last_report_rx_us_ = rx.steady_us;
+        last_robot_t_us_ = st->t_us;
+        robot_clock_known_ = true;
       }
-      if (st != nullptr) last_robot_t_us_ = st->t_us;
     }
     if (!say.empty()) {
       if (stop_robot) {
@@ -406,6 +455,11 @@ void Hub::on_robot_packet(pr::SerialFromDevice&& msg, const tr::RxPacket& rx) {
     }
     cv_.notify_all();
   } else if (std::holds_alternative<pr::PeerHello>(msg)) {
+    {
+      std::lock_guard<std::mutex> lock(mu_);
+      robot_clock_known_ = false;  // its clock started again
+      stall_pending_ = false;
+    }
     record_event("robot", "unsolicited hello: the robot reset");
   }
 }

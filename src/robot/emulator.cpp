@@ -224,7 +224,9 @@ void Emulator::set_button(int button, bool pressed) {
   avr_->drive_pin(kButton[button].port, kButton[button].bit, !pressed);
 }
 
-bool Emulator::link_cut() const { return avr_->sim_seconds() < cut_until_s_; }
+bool Emulator::link_cut() const {
+  return avr_->sim_seconds() < cut_until_s_ || splice_ == Splice::kCutting;
+}
 
 void Emulator::from_host(const std::vector<std::uint8_t>& bytes) {
   for (std::uint8_t b : bytes) {
@@ -239,6 +241,27 @@ void Emulator::from_host(const std::vector<std::uint8_t>& bytes) {
 }
 
 void Emulator::to_host(std::uint8_t b) {
+  // a splice cut starts and ends right after a state report's t_us field (its third '='):
+  // the report cut in two and the later one it resumes in make one line that decodes, with
+  // the first one's seq and clock and the later one's positions (the wire has no checksum)
+  const bool splice_point = tx_state_report_ && tx_delims_ == 3 && tx_prev_ == '=';
+  if (splice_ == Splice::kArmed && splice_point) {
+    splice_ = Splice::kCutting;
+    splice_until_s_ = avr_->sim_seconds() + splice_ms_ / 1000.0;
+  } else if (splice_ == Splice::kCutting && splice_point &&
+             avr_->sim_seconds() >= splice_until_s_) {
+    splice_ = Splice::kNone;
+  }
+  if (b == '\n') {
+    tx_len_ = tx_delims_ = 0;
+    tx_state_report_ = false;
+  } else {
+    if (tx_len_ == 0) tx_first_ = b;
+    if (tx_len_ == 1) tx_state_report_ = tx_first_ == 'S' && b == 'T';
+    ++tx_len_;
+    if (b == '=') ++tx_delims_;
+  }
+  tx_prev_ = b;
   if (link_cut()) return;
   if (corrupt_tx_ > 0) {
     --corrupt_tx_;
@@ -400,8 +423,16 @@ std::string Emulator::command(const std::string& line, int client) {
   }
   if (verb == "cut") {
     double ms = 0;
-    if (!(in >> ms) || ms <= 0) return "ERR cut needs a duration > 0 ms";
-    cut_until_s_ = now_s + ms / 1000.0;
+    std::string how;
+    if (!(in >> ms) || ms <= 0 || ((in >> how) && how != "splice")) {
+      return "ERR cut needs a duration > 0 ms, then splice or nothing";
+    }
+    if (how == "splice") {
+      splice_ = Splice::kArmed;
+      splice_ms_ = ms;
+    } else {
+      cut_until_s_ = now_s + ms / 1000.0;
+    }
     return "OK " + line;
   }
   if (verb == "lose") {

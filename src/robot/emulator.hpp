@@ -104,6 +104,19 @@ class Emulator {
   std::uint8_t buttons_ = 0;
   std::array<double, 6> release_at_s_{};  // timed presses: emulated time of the release
   double cut_until_s_ = 0.0;
+  // a splice cut (`cut <ms> splice`): armed, it starts right after a state report's t_us
+  // field and ends, once its time is up, at the same place in a later report
+  enum class Splice { kNone, kArmed, kCutting };
+  Splice splice_ = Splice::kNone;
+  double splice_ms_ = 0.0;
+  double splice_until_s_ = 0.0;
+  // the line the firmware is sending: whether it is a state report (ST), the delimiters so
+  // far, the last byte
+  std::uint32_t tx_len_ = 0;
+  std::uint32_t tx_delims_ = 0;
+  bool tx_state_report_ = false;
+  std::uint8_t tx_first_ = 0;
+  std::uint8_t tx_prev_ = 0;
   std::uint32_t corrupt_rx_ = 0;
   std::uint32_t corrupt_tx_ = 0;
   std::uint64_t last_rx_sim_us_ = 0;

@@ -16,7 +16,7 @@
 // tool_x_m= tool_y_m= tool_z_m= tool_yaw_rad= (true tool) lost_z= lost_j2= lost_j3= (steps
 // the motors lost) held=<cube id or -1>; with --plant ideal it ends with plant=ideal.
 // Client -> emulator, one command per line, answered "OK <command>" or "ERR <reason>":
-//   query | rate <hz> | mark | press <button> [ms] | release <button> | cut <ms> |
+//   query | rate <hz> | mark | press <button> [ms] | release <button> | cut <ms> [splice] |
 //   lose <z|j2|j3> <steps> | corrupt <n> [rx|tx] |
 //   endstop <z|j2|j3> <open|closed|ok> (a broken switch or wire reads open or closed whatever
 //   its axis does; ok repairs it) |

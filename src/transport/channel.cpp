@@ -130,7 +130,11 @@ struct Channel<Out, In>::State {
   std::int64_t last_tx_us = 0;
   std::uint64_t heartbeat_drops = 0;
   std::string drop_reason;
+  std::int64_t last_tick_us = 0;  // io thread only
   static constexpr std::chrono::milliseconds kHeartbeatTick{50};
+  // A tick this much later than due: this process (or its io thread) was not running, and what
+  // the peer sent meanwhile may wait unread behind the tick; such a tick judges nothing.
+  static constexpr std::int64_t kLateTickUs = 100000;
 
   // io thread: every tick, pings a quiet peer and ends the connection of a hung one. The
   // timer is passed along (the destructor takes the member away and cancels it).
@@ -148,6 +152,10 @@ struct Channel<Out, In>::State {
 
   void heartbeat_tick() {
     const std::int64_t now = steady_now_us();
+    const bool late = last_tick_us != 0 && now - last_tick_us > kHeartbeatTick.count() * 1000 +
+                                                                  kLateTickUs;
+    last_tick_us = now;
+    if (late) return;
     std::vector<Completion> done;
     bool drop = false;
     {

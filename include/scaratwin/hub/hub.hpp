@@ -276,6 +276,15 @@ class Hub {
   double abort_stop_wait_s_ = 0.0;     // how long a statement waits for the watcher's stop (0: reply timeout, mu_)
   std::int64_t last_robot_rx_us_ = 0;  // (mu_)
   std::uint32_t last_robot_t_us_ = 0;  // the robot's clock in its last report (mu_)
+  bool robot_clock_known_ = false;     // last_robot_t_us_ holds a report's clock (mu_)
+  // a silence whose first report showed the robot's clock one period on: said as a stall
+  // once the next report confirms it (mu_)
+  bool stall_pending_ = false;
+  std::int64_t stall_gap_ms_ = 0;
+  std::int64_t stall_robot_ms_ = 0;
+  std::uint32_t anchor_t_us_ = 0;       // the last report before that silence: its clock
+  std::int64_t anchor_rx_us_ = 0;       // and when it was received (mu_)
+  std::int64_t last_report_rx_us_ = 0;  // when the last report was received (mu_)
   bool robot_silent_ = false;          // (mu_)
   bool silence_said_ = false;          // the silence was said on stderr (mu_)
   bool stop_owed_ = false;      // a stop sent into the silence, sent again when it ends (mu_)
