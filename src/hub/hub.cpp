@@ -29,9 +29,12 @@ constexpr double kDesyncWindowS = 1.5;
 
 constexpr const char* kInterrupted = "interrupted";
 
-// A robot link silent this long during a trajectory ends it whatever the silence was: the
-// robot's queue (at most 63 points of 20 ms) has run out by then on a cut link.
-constexpr double kRobotSilenceAbortS = 1.5;
+// A robot link silent during a trajectory ends it whatever the silence was after the reply
+// timeout (HubOptions::reply_timeout_s, the same rule as for a request), and never before
+// this: the robot's queue (at most 63 points of 20 ms) has run out by then on a cut link. A
+// shorter limit ended healthy moves of an emulated robot that a busy host did not run for
+// 1.5 s (its clock stood still: a stalled robot moves no further than its host lets it).
+constexpr double kRobotSilenceAbortMinS = 1.5;
 // A watchdog pass this much later than due: the hub itself was not running.
 constexpr std::int64_t kLatePassUs = 100000;
 
@@ -322,7 +325,8 @@ void Hub::watch_robot_link() {
           "no state report from the robot for {} ms (the link cut, or the robot stalled)",
           quiet_us / 1000);
     } else if (robot_silent_ && in_motion_ && motion_abort_.empty() &&
-               static_cast<double>(quiet_us) >= kRobotSilenceAbortS * 1e6) {
+               static_cast<double>(quiet_us) >=
+                   std::max(options_.reply_timeout_s, kRobotSilenceAbortMinS) * 1e6) {
       // longer than the robot's queue lasts: the move is over whatever it was
       say = fmt::format("the robot link is silent for {} ms (cut or unplugged)", quiet_us / 1000);
       motion_abort_ = say;

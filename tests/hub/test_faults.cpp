@@ -300,7 +300,8 @@ TEST(Faults, SerialCutInsideTwoReportsIsNotTakenForAStall) {
 }
 
 // A serial cut of 5 s mid-trajectory (issue 17's reproduction was 4 s): said after 150 ms;
-// after 1.5 s of silence (longer than the robot's queue lasts) the hub ends the move, sends
+// after the reply timeout's 3 s of silence (longer than the robot's queue lasts) the hub ends
+// the move, sends
 // the stop into the silence and says the stop was not confirmed (it ends while the link is
 // still cut); the robot, hearing nothing, stopped by itself when its queued points ran out;
 // once the link is back, home and the next move work (before: "HM refused: busy (9)").

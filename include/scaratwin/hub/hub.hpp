@@ -273,7 +273,8 @@ class Hub {
   std::atomic<protocol::TwinPhase> twin_phase_{protocol::TwinPhase::kNone};
   // the robot link's watchdog (a cut is silence: the firmware reports periodically)
   double silence_limit_s_ = 0.0;       // 0 until the reports are on
-  double abort_stop_wait_s_ = 0.0;     // how long a statement waits for the watcher's stop (0: reply timeout, mu_)
+  // how long a statement waits for the watcher's stop (0: the reply timeout; mu_)
+  double abort_stop_wait_s_ = 0.0;
   std::int64_t last_robot_rx_us_ = 0;  // (mu_)
   std::uint32_t last_robot_t_us_ = 0;  // the robot's clock in its last report (mu_)
   bool robot_clock_known_ = false;     // last_robot_t_us_ holds a report's clock (mu_)
