@@ -179,7 +179,17 @@ TEST_F(CompanionSerial, SingleClassReportsOneValuePerLineInTheSwitchFrame) {
   auto st = robot.query_state();
   ASSERT_TRUE(st) << "QS is answered with ST in the single-class form too";
   EXPECT_EQ(st->z(), at.i("z"));
-  ASSERT_EQ(robot.request("CF=10=1=\n").value_or(""), "AK=CF=1=");
+  // the reply, after any one-value report lines already on their way (they are not v1 lines)
+  robot.send("CF=10=1=\n");
+  std::optional<std::string> reply;
+  for (int i = 0; i < 100; ++i) {
+    reply = robot.line();
+    if (!reply || reply->size() < 2 || order.find((*reply)[0]) == std::string::npos ||
+        reply->find_first_not_of("-0123456789", 1) != std::string::npos) {
+      break;
+    }
+  }
+  ASSERT_EQ(reply.value_or(""), "AK=CF=1=");
   auto l = robot.wait_for("ST=");
   ASSERT_TRUE(l) << "setting 1: the periodic reports are ST again";
 }
