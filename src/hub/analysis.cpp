@@ -65,6 +65,35 @@ LatencyFigures latency_figures(const std::vector<LatencyRecord>& frames, double 
   return f;
 }
 
+SampleClock::SampleClock(std::size_t window, double wire_s)
+    : window_(std::max<std::size_t>(window, 1)),
+      wire_us_(static_cast<int64_t>(std::llround(wire_s * 1e6))) {}
+
+void SampleClock::reset() {
+  started_ = false;
+  n_ = 0;
+  mins_.clear();
+}
+
+int64_t SampleClock::sample_time_us(uint32_t device_t_us, int64_t rx_us) {
+  constexpr int64_t kJumpUs = 60'000'000;
+  const auto step = static_cast<int32_t>(device_t_us - last_dev_);
+  if (started_ && (step < 0 || step > kJumpUs)) reset();
+  if (!started_) {
+    started_ = true;
+    dev_ = device_t_us;
+  } else {
+    dev_ += step;
+  }
+  last_dev_ = device_t_us;
+  const int64_t offset = rx_us - dev_;
+  while (!mins_.empty() && mins_.back().second >= offset) mins_.pop_back();
+  mins_.emplace_back(n_, offset);
+  while (mins_.front().first + window_ <= n_) mins_.pop_front();
+  ++n_;
+  return dev_ + mins_.front().second - wire_us_;
+}
+
 namespace {
 
 JointVector lerp(const JointVector& a, const JointVector& b, double u) {

@@ -60,7 +60,12 @@ std::string access_refusal(const std::string& message, const HubOptions& o) {
 }  // namespace
 
 Hub::Hub(const RobotModel& model, const HubOptions& options, TwinDb* db)
-    : model_(model), options_(options), db_(db), report_dir_(homed_directions(model)) {}
+    : model_(model),
+      options_(options),
+      db_(db),
+      report_dir_(homed_directions(model)),
+      // a state report's wire time as the demo's report takes it (55 bytes of 10 bits)
+      sample_clock_(100, 55.0 * 10.0 / std::max(1u, options.baud)) {}
 
 Hub::~Hub() {
   {
@@ -463,6 +468,7 @@ void Hub::on_robot_packet(pr::SerialFromDevice&& msg, const tr::RxPacket& rx) {
       std::lock_guard<std::mutex> lock(mu_);
       robot_clock_known_ = false;  // its clock started again
       stall_pending_ = false;
+      sample_clock_.reset();
     }
     record_event("robot", "unsolicited hello: the robot reset");
   }
@@ -530,15 +536,19 @@ void Hub::on_device_state(const pr::DeviceState& st, const tr::RxPacket& rx) {
 void Hub::forward_to_sim(const PhysicalState& ps) {
   pr::JointData jd;
   jd.seq = ps.raw.seq;
-  jd.t_us = static_cast<std::uint32_t>(ps.rx_steady_us);
   jd.q = ps.q;
   const std::int64_t rx_us = ps.rx_steady_us;
   const std::uint32_t device_t = ps.raw.t_us;
   const JointVector q = ps.q;
   const double grip = ps.grip_deg;
+  std::int64_t sample_us = rx_us;
   {
     std::lock_guard<std::mutex> lock(mu_);
     ++mirror_counters_.frames;
+    // the sample time in the hub's clock (docs/protocol.md, JD): the simulator's latency
+    // figures then start where the report's do, at the robot's sample
+    sample_us = sample_clock_.sample_time_us(device_t, rx_us);
+    jd.t_us = static_cast<std::uint32_t>(sample_us);
   }
   const auto not_applied = [this] {
     std::lock_guard<std::mutex> lock(mu_);
@@ -546,7 +556,7 @@ void Hub::forward_to_sim(const PhysicalState& ps) {
   };
   const Status posted = sim_->post(
       jd,
-      [this, rx_us, device_t, q, grip, seq = jd.seq,
+      [this, rx_us, sample_us, device_t, q, grip, seq = jd.seq,
        not_applied](Result<tr::SimChannel::Reply>&& r) {
         const auto* ja = r ? std::get_if<pr::JointApplied>(&r->last()) : nullptr;
         if (ja == nullptr) {
@@ -558,7 +568,8 @@ void Hub::forward_to_sim(const PhysicalState& ps) {
             static_cast<std::int32_t>(ja->t_apply_us - static_cast<std::uint32_t>(rx_us));
         const std::int64_t apply_us = rx_us + delta;
         std::lock_guard<std::mutex> lock(mu_);
-        const double lat_ms = static_cast<double>(apply_us - rx_us) / 1000.0;
+        // from the robot's sample, as the report counts it
+        const double lat_ms = static_cast<double>(apply_us - sample_us) / 1000.0;
         ++mirror_counters_.applied;
         latency_sum_ms_ += lat_ms;
         mirror_counters_.last_latency_ms = lat_ms;

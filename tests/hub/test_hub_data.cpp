@@ -158,6 +158,33 @@ TEST(Analysis, SummarizesAndCountsLostFrames) {
   EXPECT_NEAR(lf.device_to_sim_ms.max, 6.5, 1e-9);
 }
 
+// The online alignment against the true sample times of a made-up robot: its clock starts at
+// 2^32 - 0.5 s (wraps after 50 reports) and runs 0.1 % fast; every report takes its wire time
+// (4 ms) plus a queueing delay that is 0 for one report in ten and 1-9 ms otherwise. Once a
+// report with no delay is in the window, the sample time is exact to the drift over the window
+// (1 s at 0.1 %: 1 ms at most); the robot's restart starts the window again.
+TEST(Analysis, SampleClockFindsTheSampleTimesOnline) {
+  SampleClock clock(100, 0.004);
+  const int64_t host0 = 5'000'000'000;  // the host's clock at the first sample, us
+  double worst_us = 0.0;
+  for (int i = 0; i < 300; ++i) {
+    const int64_t sample = host0 + i * 10'000;
+    const auto dev = static_cast<uint32_t>(4294967296LL - 500'000 + std::llround(i * 10'010.0));
+    const int64_t delay = i % 10 == 0 ? 0 : 1000 * (i % 10);
+    const int64_t t = clock.sample_time_us(dev, sample + 4000 + delay);
+    if (i >= 10) worst_us = std::max(worst_us, std::abs(static_cast<double>(t - sample)));
+    if (i == 0) {
+      EXPECT_EQ(t, sample) << "the first report had no delay";
+    }
+  }
+  EXPECT_LT(worst_us, 1000.0);
+  // a restart: the robot's clock from 0 again, the host's on; no report of the old clock counts
+  // (the first one after it, 3 ms late, is all there is to go by; the next one was on time)
+  const int64_t host1 = host0 + 10'000'000;
+  EXPECT_EQ(clock.sample_time_us(1000, host1 + 4000 + 3000), host1 + 3000);
+  EXPECT_EQ(clock.sample_time_us(11'000, host1 + 10'000 + 4000), host1 + 10'000);
+}
+
 TEST(Analysis, ComparesRunsAndRaisesDesync) {
   const RobotModel m = paper_robot();
   std::vector<JointRecord> a, b;

@@ -79,6 +79,15 @@ try {
   check('J2+ pressed', (await side.command('press j2+ 700')) === 'OK press j2+ 700');
   await sleep(1500);
   check('Z- pressed', (await side.command('press z- 500')) === 'OK press z- 500');
+  // the page's latency starts where the report's does, at the robot's sample: the hub aligns
+  // the robot's clock to its own, so no frame can show less than the wire time of one state
+  // report (55 bytes at 115200 baud, 4.774 ms) that the report's alignment takes off too
+  // (before: the hub's receive time, 0.1-2 ms)
+  await sleep(1000);
+  const live = await page.evaluate(() => window.scaratwin.state.link);
+  check('the page\'s latency runs from the robot\'s sample',
+    live.latency_ms >= 4.77 && live.latency_mean_ms >= 4.77 && live.latency_mean_ms < 100,
+    `last ${live.latency_ms} ms, mean ${live.latency_mean_ms} ms`);
   const mirrorStatus = await mirror.exited;
   const report = mirror.output.match(/(\d+) frames mirrored, (\d+) lost/);
   check('scaratwin mirror', mirrorStatus === 0 && report !== null, mirror.output);

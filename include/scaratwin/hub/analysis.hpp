@@ -5,6 +5,8 @@
 
 #include <array>
 #include <cstdint>
+#include <deque>
+#include <utility>
 #include <vector>
 
 #include "scaratwin/hub/twin_db.hpp"
@@ -37,6 +39,29 @@ struct LatencyFigures {
   int64_t lost_frames = 0;  // sequence gaps (seq wraps at 65536)
 };
 LatencyFigures latency_figures(const std::vector<LatencyRecord>& frames, double wire_s);
+
+// The robot's sample clock on the host's, online, as latency_figures aligns it offline: the
+// sample time of a report is its device time plus the smallest receive-minus-sample offset of
+// the last `window` reports (the robot's clock unwrapped; the offline form takes the frames on
+// either side), minus the wire time of one report (`wire_s`), which no report can beat. A robot
+// clock that goes back or jumps a minute (a restart) starts the window again.
+class SampleClock {
+ public:
+  explicit SampleClock(std::size_t window = 100, double wire_s = 0.0);
+  // the host time (the receive clock's) at which the robot sampled a report stamped
+  // `device_t_us` (u32, wraps) and received at `rx_us`
+  int64_t sample_time_us(uint32_t device_t_us, int64_t rx_us);
+  void reset();
+
+ private:
+  std::size_t window_;
+  int64_t wire_us_;
+  bool started_ = false;
+  uint32_t last_dev_ = 0;
+  int64_t dev_ = 0;   // unwrapped
+  uint64_t n_ = 0;    // reports seen since the window started
+  std::deque<std::pair<uint64_t, int64_t>> mins_;  // (report, offset), offsets increasing
+};
 
 // Deviation of run B from run A, B resampled at A's times (linear interpolation).
 struct Deviation {

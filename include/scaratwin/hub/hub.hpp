@@ -88,7 +88,9 @@ struct MirrorCounters {
   std::uint64_t lost = 0;             // ST sequence gaps
   std::uint64_t not_applied = 0;      // frames forwarded whose JA never came (refused, link lost)
   std::uint64_t sim_link_losses = 0;  // times the simulator link went down since connect
-  double last_latency_ms = 0.0;       // hub receive -> simulator applied, last frame
+  // robot's sample -> simulator applied (the robot's clock aligned online, as the report's
+  // figure), last frame
+  double last_latency_ms = 0.0;
   double mean_latency_ms = 0.0;
 };
 
@@ -271,6 +273,8 @@ class Hub {
   bool play_reset_ = false;     // homing: start the play again from the homed sides
   // the twin's phase as last set (set_twin_phase); homing restores it when it ends
   std::atomic<protocol::TwinPhase> twin_phase_{protocol::TwinPhase::kNone};
+  // the robot's clock aligned to the hub's, for the sample time of each mirrored frame (mu_)
+  SampleClock sample_clock_;
   // the robot link's watchdog (a cut is silence: the firmware reports periodically)
   double silence_limit_s_ = 0.0;       // 0 until the reports are on
   // how long a statement waits for the watcher's stop (0: the reply timeout; mu_)
