@@ -80,7 +80,7 @@ struct SimServer::Impl {
     }
     if (options.on_new_stream) options.on_new_stream();
     // a new hub: a homing phase a hub left unfinished (it died) ends here
-    world.with_simulation([](Simulation& s) { s.set_limit_warnings(true); });
+    world.with_simulation([](Simulation& s) { s.restart_limit_warnings(); });
     put(out, proto::PeerHello{core::kProtocolVersion, kDeviceName, kSoftwareVersion});
   }
   void on(std::string& out, const proto::Ping& m) { put(out, proto::Ack{"PI", m.token}); }

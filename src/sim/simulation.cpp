@@ -237,6 +237,7 @@ Result<std::unique_ptr<Simulation>> Simulation::clone() const {
   s->next_path_s_ = next_path_s_;
   s->warnings_ = warnings_;
   s->warnings_total_ = warnings_total_;
+  s->outside_ = outside_;
   return s;
 }
 
@@ -273,7 +274,9 @@ std::vector<JointWarning> Simulation::note_limits(const JointVector& q) {
   std::vector<JointWarning> out;
   if (!limit_warnings_) return out;
   for (int j = 0; j < kNumJoints; ++j) {
-    if (!robot_.limits[j].contains(q[j])) out.push_back(push_warning(j, q[j]));
+    const bool outside = !robot_.limits[j].contains(q[j]);
+    if (outside && !outside_[j]) out.push_back(push_warning(j, q[j]));
+    outside_[j] = outside;
   }
   return out;
 }

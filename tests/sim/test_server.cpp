@@ -205,6 +205,21 @@ TEST_F(SimServerTest, JointLimitWarningComesBeforeTheReply) {
   EXPECT_EQ(server_->counters().warnings_sent, 1u);
 }
 
+// A joint that stays beyond its limit is one warning, not one per frame (a robot resting at
+// its switch just beyond a soft limit made 100 a second, 1,938 on the page at a demo's end);
+// back inside and out again is the next one; a new hub's hello starts afresh.
+TEST_F(SimServerTest, AJointBeyondItsLimitFrameAfterFrameIsOneWarning) {
+  EXPECT_EQ(server_->handle_line("JD,4,0,80,130,0,0,").rfind("JW,2,130,\nJA,4,", 0), 0u);
+  EXPECT_EQ(server_->handle_line("JD,5,0,80,131,0,0,").rfind("JA,5,", 0), 0u);
+  EXPECT_EQ(server_->handle_line("JD,6,0,125,131,0,0,").rfind("JW,1,125,\nJA,6,", 0), 0u);
+  EXPECT_EQ(server_->handle_line("JD,7,0,80,100,0,0,").rfind("JA,7,", 0), 0u);
+  EXPECT_EQ(server_->handle_line("JD,8,0,80,132,0,0,").rfind("JW,2,132,\nJA,8,", 0), 0u);
+  EXPECT_EQ(world_->snapshot().warnings_total, 3u);
+  EXPECT_EQ(server_->handle_line("HI,1,"), "HI,1,scaratwin-sim,0.1.0,\n");
+  EXPECT_EQ(server_->handle_line("JD,9,0,80,132,0,0,").rfind("JW,2,132,\nJA,9,", 0), 0u);
+  EXPECT_EQ(world_->snapshot().warnings_total, 4u);
+}
+
 // While the hub says the robot homes (TW,homing), joints beyond their soft limits are not
 // warnings (homing passes them on the way to the endstops, by design); the next phase, or a new
 // hub's hello, notes them again.

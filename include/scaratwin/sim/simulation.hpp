@@ -202,8 +202,18 @@ class Simulation {
   std::vector<ToolPoint> tool_path() const;
   const std::deque<JointWarning>& recent_warnings() const { return warnings_; }
   // Off while the robot homes (it passes its soft limits on the way to its endstops, by design):
-  // joints beyond their limits are then not warnings. On by default.
-  void set_limit_warnings(bool on) { limit_warnings_ = on; }
+  // joints beyond their limits are then not warnings. On by default. A joint that stays beyond
+  // its limit frame after frame is one warning, the next one when it leaves its limits again
+  // (turning the warnings on starts afresh).
+  void set_limit_warnings(bool on) {
+    if (on && !limit_warnings_) outside_ = {};
+    limit_warnings_ = on;
+  }
+  // On, afresh: every joint beyond its limits at its next note is a warning (a new hub).
+  void restart_limit_warnings() {
+    limit_warnings_ = true;
+    outside_ = {};
+  }
   bool limit_warnings() const { return limit_warnings_; }
   std::uint64_t warnings_total() const { return warnings_total_; }
   const RobotModel& robot() const { return robot_; }
@@ -281,6 +291,7 @@ class Simulation {
   double next_path_s_ = 0.0;
   std::deque<JointWarning> warnings_;
   bool limit_warnings_ = true;
+  std::array<bool, kNumJoints> outside_{};  // each joint beyond its limits at its last note
   std::uint64_t warnings_total_ = 0;
 };
 
