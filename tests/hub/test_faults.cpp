@@ -175,6 +175,12 @@ struct Rig {
 
 std::string tail_of(ChildProcess& p) { return p.output_tail(40); }
 
+// After a fault: a move to d1 = 0.10 m works and ends there by the truth (Z steps per metre).
+void expect_next_move_works(Rig& rig, Side& side) {
+  ASSERT_EQ(rig.run({"movej", "0.10", "0", "0", "0"}, "next.log"), 0);
+  EXPECT_NEAR(static_cast<double>(side.truth("z")), 0.10 * 205560.0, 200.0);
+}
+
 // Ctrl-C during a move stops the robot at once (not at the end of its queue), exits with
 // 130, and the next move works (before: the process died, the robot ran out its queue and
 // kept the trajectory, and every later command was refused as busy).
@@ -200,8 +206,7 @@ TEST(Faults, CtrlCDuringAMoveStopsTheRobotAndTheNextMoveWorks) {
   const std::int64_t z_stopped = side.truth("z");
   EXPECT_GT(z_stopped, 4111 + 5000) << "stopped on the way, not at the end of the move";
   // the next move works (the halt is cleared) and ends where planned
-  ASSERT_EQ(rig.run({"movej", "0.10", "0", "0", "0"}, "next.log"), 0);
-  EXPECT_NEAR(static_cast<double>(side.truth("z")), 0.10 * 205560.0, 200.0);
+  ASSERT_NO_FATAL_FAILURE(expect_next_move_works(rig, side));
   ASSERT_EQ(rig.run({"home"}, "home2.log"), 0);
 }
 
@@ -223,8 +228,7 @@ TEST(Faults, StopStatementAfterAKilledHubAndTheNextMoveWorks) {
   EXPECT_EQ(stop->wait_exit(60s), 0) << tail_of(*stop);
   EXPECT_NE(tail_of(*stop).find("stopped"), std::string::npos) << tail_of(*stop);
   EXPECT_TRUE(side.at_rest());
-  ASSERT_EQ(rig.run({"movej", "0.10", "0", "0", "0"}, "next.log"), 0);
-  EXPECT_NEAR(static_cast<double>(side.truth("z")), 0.10 * 205560.0, 200.0);
+  ASSERT_NO_FATAL_FAILURE(expect_next_move_works(rig, side));
   ASSERT_EQ(rig.run({"home"}, "home2.log"), 0);
 }
 
@@ -280,8 +284,7 @@ void expect_short_cut_stops_the_robot(const char* name, const std::string& how) 
   EXPECT_TRUE(stalled == std::string::npos || stalled > back) << "a cut taken for a stall: " << out;
   EXPECT_TRUE(side.at_rest()) << "the robot stopped";
   EXPECT_GT(side.truth("z"), 4111 + 2000) << "stopped on the way, not at the end of the move";
-  ASSERT_EQ(rig.run({"movej", "0.10", "0", "0", "0"}, "next.log"), 0);
-  EXPECT_NEAR(static_cast<double>(side.truth("z")), 0.10 * 205560.0, 200.0);
+  ASSERT_NO_FATAL_FAILURE(expect_next_move_works(rig, side));
 }
 
 // Before: the hub noticed nothing for 3 s ("no progress"). With the watchdog off
@@ -325,8 +328,7 @@ TEST(Faults, SerialCutOfFiveSecondsMidTrajectoryIsReportedAndHomeWorksAfter) {
   EXPECT_TRUE(side.at_rest()) << "the robot stopped by itself";
   EXPECT_GT(side.truth("z"), 4111 + 2000) << "not at the end of the move";
   ASSERT_EQ(rig.run({"home"}, "home.log"), 0);
-  ASSERT_EQ(rig.run({"movej", "0.10", "0", "0", "0"}, "next.log"), 0);
-  EXPECT_NEAR(static_cast<double>(side.truth("z")), 0.10 * 205560.0, 200.0);
+  ASSERT_NO_FATAL_FAILURE(expect_next_move_works(rig, side));
 }
 
 // The simulator's port, from its "listening on 127.0.0.1:PORT (" line.
@@ -377,8 +379,7 @@ TEST(Faults, SimulatorKilledMidMoveTheRobotStopsAndTheNextMoveWorks) {
   ASSERT_TRUE(sim) << sim.error().message;
   ASSERT_EQ(sim_port_of(**sim), rig.sim_port);
   rig.sim = std::move(*sim);
-  ASSERT_EQ(rig.run({"movej", "0.10", "0", "0", "0"}, "next.log"), 0);
-  EXPECT_NEAR(static_cast<double>(side.truth("z")), 0.10 * 205560.0, 200.0);
+  ASSERT_NO_FATAL_FAILURE(expect_next_move_works(rig, side));
 }
 
 // The simulator killed and restarted during `mirror` (issue 17: a takeover during mirror was
@@ -457,8 +458,7 @@ TEST(Faults, SimulatorHungMidMoveTheRobotStopsAndTheNextMoveWorksWhenItResumes) 
   EXPECT_GT(z_stopped, 4111 + 2000) << "stopped on the way, not at the end of the move";
   // the simulator resumes: the next move works with it
   ASSERT_EQ(::kill(rig.sim->pid(), SIGCONT), 0);
-  ASSERT_EQ(rig.run({"movej", "0.10", "0", "0", "0"}, "next.log"), 0);
-  EXPECT_NEAR(static_cast<double>(side.truth("z")), 0.10 * 205560.0, 200.0);
+  ASSERT_NO_FATAL_FAILURE(expect_next_move_works(rig, side));
 }
 
 // The simulator hangs (SIGSTOP) for 3 s during `mirror` and resumes: the hub says it stopped
