@@ -303,14 +303,17 @@ int main(int argc, char** argv) {
                               std::chrono::duration<double>(a.status_s));
       const sim::Snapshot s = (*world)->snapshot();
       const auto c = (*server)->counters();
+      const std::string phase = link_monitor.status().twin_mode;
       std::printf(
           "t %.2f s  rtf %.2f  %s  d1 %.1f mm q2 %.1f q3 %.1f q4 %.1f deg  cubes %zu  "
-          "packets %llu errors %llu images %llu\n",
+          "packets %llu errors %llu images %llu  limit warnings %llu  phase %s\n",
           s.time_s, s.real_time_factor, sim::mode_name(s.mode), m_to_mm(s.joints[0]),
           rad_to_deg(s.joints[1]), rad_to_deg(s.joints[2]), rad_to_deg(s.joints[3]), s.cubes.size(),
           static_cast<unsigned long long>(c.packets),
           static_cast<unsigned long long>(c.errors_sent),
-          static_cast<unsigned long long>(c.images_sent));
+          static_cast<unsigned long long>(c.images_sent),
+          static_cast<unsigned long long>(s.warnings_total),
+          phase.empty() ? "-" : phase.c_str());
       std::fflush(stdout);
     }
   }

@@ -164,6 +164,7 @@ Result<std::unique_ptr<Hub>> Hub::connect(const RobotModel& model, const HubOpti
   if (auto qs = t->robot_->request(pr::QueryState{}, milliseconds(1000)); qs) {
     const auto* st = std::get_if<pr::DeviceState>(&qs->last());
     if (st != nullptr && (st->flags & pr::state_flags::kHomed) != 0) {
+      t->robot_homed_ = true;
       (void)t->set_twin_phase(t->twin_phase_.load());
     }
   }
@@ -469,6 +470,7 @@ void Hub::on_robot_packet(pr::SerialFromDevice&& msg, const tr::RxPacket& rx) {
       robot_clock_known_ = false;  // its clock started again
       stall_pending_ = false;
       sample_clock_.reset();
+      robot_homed_ = false;  // it powered up anew
     }
     record_event("robot", "unsolicited hello: the robot reset");
   }
@@ -729,6 +731,7 @@ Status Hub::home(double timeout_s) {
   if (Status s = wait_motors_at_rest(60.0); !s) return s;
   // the robot passes its soft limits on the way to its endstops: the simulator notes no
   // limit warning until homing ends (best effort: a missing simulator does not stop homing)
+  robot_homed_ = false;  // until EV 1 says otherwise
   (void)set_twin_phase(pr::TwinPhase::kHoming);
   struct RestorePhase {
     Hub* hub;
@@ -744,6 +747,7 @@ Status Hub::home(double timeout_s) {
     return hub_error(fmt::format("homing failed: the {} endstop was not found (switch or cable)",
                                  axis >= 0 && axis < 3 ? kAxis[axis] : "?"));
   }
+  robot_homed_ = true;  // (before the phase is restored)
   // homing leaves each joint moving away from its switch
   statements_->set_directions(homed_directions(model_));
   // the offsets come just before EV 1 when the robot was homed before

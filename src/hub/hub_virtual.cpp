@@ -41,8 +41,11 @@ Status Hub::place_virtual(const JointVector& q) {
 }
 
 Status Hub::set_twin_phase(pr::TwinPhase phase) {
+  // an un-homed robot's joints are its counts since power-up, not where it is: the simulator
+  // hears that it homes, whatever the phase, until it has (home() restores the phase)
+  const pr::TwinPhase said = robot_homed_ ? phase : pr::TwinPhase::kHoming;
   auto r =
-      sim_reply<pr::Ack>("twin phase", sim_->request(pr::SetTwinPhase{phase}, milliseconds(2000)));
+      sim_reply<pr::Ack>("twin phase", sim_->request(pr::SetTwinPhase{said}, milliseconds(2000)));
   if (!r) return r.error();
   if (phase != pr::TwinPhase::kHoming) twin_phase_ = phase;
   return Ok{};

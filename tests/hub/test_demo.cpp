@@ -73,7 +73,8 @@ struct Rig {
 
 // `ideal`: the exact robot (--plant ideal), for tests of the firmware's step arithmetic; else
 // the robot as built, the default.
-void start_rig(const fs::path& dir, bool camera, Rig* rig, bool ideal = false) {
+void start_rig(const fs::path& dir, bool camera, Rig* rig, bool ideal = false,
+               const std::vector<std::string>& more_sim_args = {}) {
   rig->pty = dir / "robot.pty";
   std::vector<std::string> robot_args{"--pty-link", rig->pty.string()};
   if (ideal) robot_args.insert(robot_args.end(), {"--plant", "ideal"});
@@ -82,6 +83,7 @@ void start_rig(const fs::path& dir, bool camera, Rig* rig, bool ideal = false) {
   rig->robot = std::move(*robot);
   std::vector<std::string> sim_args = {"--port", "0", "--http-port", "0"};
   if (!camera) sim_args.emplace_back("--no-camera");
+  sim_args.insert(sim_args.end(), more_sim_args.begin(), more_sim_args.end());
   auto sim = ChildProcess::start(kBin / "scaratwin-sim", sim_args, dir / "sim.log");
   ASSERT_TRUE(sim) << sim.error().message;
   rig->sim = std::move(*sim);
@@ -337,6 +339,52 @@ TEST(Script, StopsAtTheFailingLineAndMovesNothingAfter) {
   EXPECT_NEAR(last[0], model.home[0], 1e-3);
   EXPECT_NEAR(last[1], model.home[1], deg_to_rad(0.5));
   EXPECT_NEAR(last[2], model.home[2], deg_to_rad(0.5));
+}
+
+// The simulator's newest status line, after the next few.
+std::string sim_status(ChildProcess& sim) {
+  std::this_thread::sleep_for(300ms);  // three status lines at 0.1 s
+  const std::string tail = sim.output_tail(2);
+  const size_t end = tail.rfind('\n', tail.size() - 2);
+  return end == std::string::npos ? tail : tail.substr(end + 1);
+}
+
+// Frames the hub has seen applied, `n` more than now (at most 10 s).
+bool more_frames_applied(Hub& hub, std::uint64_t n) {
+  const std::uint64_t want = hub.mirror_counters().applied + n;
+  for (int i = 0; i < 200 && hub.mirror_counters().applied < want; ++i) {
+    std::this_thread::sleep_for(50ms);
+  }
+  return hub.mirror_counters().applied >= want;
+}
+
+// The demo sets its phase (mirror) before it homes the robot: an un-homed robot's joints are
+// its counts since power-up (d1 0 mm, below the 10 mm soft limit), and homing passes the soft
+// limits on its way to the switches; the simulator takes none of it for a limit warning. Once
+// homed, a joint beyond its limit is one again. (Before: one warning at the start of every
+// demo, "joint 0 at 0.0 mm".)
+TEST(Hub, APhaseSetBeforeHomingTakesNoUnhomedJointForALimitWarning) {
+  const fs::path dir = fresh_dir("phase");
+  Rig rig;
+  ASSERT_NO_FATAL_FAILURE(start_rig(dir, false, &rig, true, {"--status", "0.1"}));
+  const RobotModel model = *load_robot_config(SCARATWIN_CONFIG_FILE);
+  HubOptions opt;
+  opt.serial_device = rig.pty.string();
+  opt.sim_port = static_cast<std::uint16_t>(std::stoi(rig.sim_port));
+  auto hub = Hub::connect(model, opt, nullptr);
+  ASSERT_TRUE(hub) << hub.error().message;
+  ASSERT_TRUE((*hub)->set_twin_phase(protocol::TwinPhase::kMirror));
+  (*hub)->set_mirror(true);
+  ASSERT_TRUE(more_frames_applied(**hub, 20)) << "frames of the un-homed robot mirrored";
+  const std::string unhomed = sim_status(*rig.sim);
+  EXPECT_NE(unhomed.find(" d1 0.0 mm "), std::string::npos) << unhomed;
+  EXPECT_NE(unhomed.find("limit warnings 0  phase homing"), std::string::npos) << unhomed;
+  ASSERT_TRUE((*hub)->home());
+  ASSERT_TRUE(more_frames_applied(**hub, 20));
+  // homed: the phase the demo set, the warnings on again (none: the robot is within limits)
+  const std::string homed = sim_status(*rig.sim);
+  EXPECT_NE(homed.find(" d1 120.0 mm "), std::string::npos) << homed;
+  EXPECT_NE(homed.find("limit warnings 0  phase mirror"), std::string::npos) << homed;
 }
 
 // Steps lost by a motor do not show in the robot's counts (it has no encoders); homing again

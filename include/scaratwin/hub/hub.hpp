@@ -180,7 +180,8 @@ class Hub {
 
   // --- virtual robot ----------------------------------------------------------------------
   Status sim_mode(protocol::SimMode mode);
-  // Tells the simulator (and so its browser UI) which of the twin's modes the hub is running.
+  // Tells the simulator (and so its browser UI) which of the twin's modes the hub is running;
+  // `homing` while the robot is not homed (its joints are then no limit warnings).
   Status set_twin_phase(protocol::TwinPhase phase);
   // Puts the virtual robot at `q` at once (kinematically, through mirror mode) and leaves the
   // simulator in simulate mode.
@@ -273,6 +274,9 @@ class Hub {
   bool play_reset_ = false;     // homing: start the play again from the homed sides
   // the twin's phase as last set (set_twin_phase); homing restores it when it ends
   std::atomic<protocol::TwinPhase> twin_phase_{protocol::TwinPhase::kNone};
+  // the robot is homed, as far as the hub knows (its state at connect, a homing since, no
+  // reset since): until it is, the simulator is told the robot homes whatever the phase
+  std::atomic<bool> robot_homed_{false};
   // the robot's clock aligned to the hub's, for the sample time of each mirrored frame (mu_)
   SampleClock sample_clock_;
   // the robot link's watchdog (a cut is silence: the firmware reports periodically)
