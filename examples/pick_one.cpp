@@ -41,7 +41,8 @@ int main(int argc, char** argv) {
   auto id = h.spawn_cube(CubeColor::kGreen, 0.19, 0.07);
   if (!id) return fail("spawn", id.error());
   auto objects = h.objects();  // func_point
-  if (!objects || objects->empty()) return fail("objects", Error{1, "no cube in the scene"});
+  if (!objects || objects->empty())
+    return fail("objects", Error{ScriptError::kNoSuchCube, "no cube in the scene"});
   const protocol::ObjectPose cube = objects->front();
   std::printf("cube %d at (%.4f, %.4f, %.4f) m\n", cube.id, cube.x_m, cube.y_m, cube.z_m);
   auto now = h.fresh_physical(2.0);  // OperationMonitoring2

@@ -105,7 +105,7 @@ std::string check_typed(const std::uint8_t* data, std::size_t size) {
                  const auto first = encode(std::get<0>(item));
                  if (!first.ok()) {
                    // values that decode but exceed what the encoder writes (|mm| >= 2.1e6).
-                   if (first.error().code != core::kErrBadValue) {
+                   if (first.error().code != protocol_error_code(core::kErrBadValue)) {
                      violation = "decoded message does not encode: " + first.error().message;
                    }
                    return;

@@ -69,9 +69,10 @@ Status EmulatedOperator::touch_off(Hub& hub, const std::string& name,
     // each nudge ends slowly from the same side, so the belts rest on one flank
     if (Status s = approach(hub, target, {1, 1, 1}); !s) return s;
   }
-  return Error{1, fmt::format("touch-off {}: the tool did not come within 0.3 mm of the mark "
-                              "(closest {:.2f} mm)",
-                              name, best * 1e3)};
+  return Error{CalibrationError::kTouchOff,
+               fmt::format("touch-off {}: the tool did not come within 0.3 mm of the mark "
+                           "(closest {:.2f} mm)",
+                           name, best * 1e3)};
 }
 
 Status TerminalOperator::pattern(bool on) {
@@ -81,7 +82,8 @@ Status TerminalOperator::pattern(bool on) {
              stdout);
   std::fflush(stdout);
   std::string line;
-  if (!std::getline(std::cin, line)) return Error{1, "calibration: no operator at the terminal"};
+  if (!std::getline(std::cin, line))
+    return Error{CalibrationError::kNoOperator, "calibration: no operator at the terminal"};
   return Ok{};
 }
 
@@ -95,7 +97,8 @@ Status TerminalOperator::touch_off(Hub& hub, const std::string& name,
     fmt::print("    > ");
     std::fflush(stdout);
     std::string line;
-    if (!std::getline(std::cin, line)) return Error{1, "calibration: no operator at the terminal"};
+    if (!std::getline(std::cin, line))
+      return Error{CalibrationError::kNoOperator, "calibration: no operator at the terminal"};
     if (line.empty()) return Ok{};
     char axis = 0, sign = 0;
     int steps = 1;
@@ -148,10 +151,13 @@ Result<CalibrationRun> calibrate_and_write(Hub& hub, NetCamera& camera, Calibrat
   {
     std::ofstream out(tmp, std::ios::binary | std::ios::trunc);
     out << text;
-    if (!out) return Error{1, "calibration: cannot write " + tmp.string()};
+    if (!out)
+      return Error{CalibrationError::kWriteFailed, "calibration: cannot write " + tmp.string()};
   }
   std::filesystem::rename(tmp, overlay, ec);
-  if (ec) return Error{1, "calibration: cannot write " + overlay.string() + ": " + ec.message()};
+  if (ec)
+    return Error{CalibrationError::kWriteFailed,
+                 "calibration: cannot write " + overlay.string() + ": " + ec.message()};
   fmt::print("    calibrated description: {} (load it with --config)\n", overlay.string());
   return run;
 }

@@ -171,7 +171,7 @@ std::vector<ToolPose> control_targets(int n) {
 
 Result<JointVector> reach(const RobotModel& model, ToolPose pose) {
   // the wrist's heading is free: the first the wrist reaches
-  Result<JointVector> q = Error{1, "unreachable"};
+  Result<JointVector> q = Error{IkError::kBeyondReach, "unreachable"};
   for (double yaw_deg : {0.0, 90.0, 180.0, -90.0}) {
     pose.yaw_rad = yaw_deg * std::numbers::pi / 180.0;
     q = inverse(model, pose, model.home);
@@ -207,8 +207,8 @@ Status wait_counts(transport::SerialLink& link, const std::array<long, 3>& want,
     }
     std::this_thread::sleep_for(20ms);
   }
-  return Error{
-      1, fmt::format("the robot did not reach the counts {} {} {}", want[0], want[1], want[2])};
+  return Error{AppError::kBench, fmt::format("the robot did not reach the counts {} {} {}", want[0],
+                                             want[1], want[2])};
 }
 
 Result<std::vector<ControlResult>> measure_control(const RobotModel& model, const BenchArgs& a,
@@ -233,8 +233,8 @@ Result<std::vector<ControlResult>> measure_control(const RobotModel& model, cons
   for (const ToolPose& p : control_targets(a.targets)) {
     auto q = reach(model, p);
     if (!q)
-      return Error{1, fmt::format("target {:.4f} {:.4f} {:.4f}: {}", p.x_m, p.y_m, p.z_m,
-                                  q.error().message)};
+      return Error{AppError::kBench, fmt::format("target {:.4f} {:.4f} {:.4f}: {}", p.x_m, p.y_m,
+                                                 p.z_m, q.error().message)};
     goals.push_back(*q);
     ControlResult r;
     r.target = p;

@@ -116,7 +116,8 @@ int run_calibrate(const CommonOptions& common, const CalibrateArgs& a) {
   rig->stop();
   if (!run) {
     std::fprintf(stderr, "scaratwin calibrate: %s\n", run.error().message.c_str());
-    return run.error().code == 2 ? kExitUsage : kExitFailure;
+    return run.error().code == error_code(CalibrationError::kCalibratedBase) ? kExitUsage
+                                                                             : kExitFailure;
   }
   return kExitOk;
 }

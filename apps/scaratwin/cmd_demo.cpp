@@ -219,7 +219,8 @@ Result<DemoOutcome> run_phases(Hub& hub, TwinDb& db, const DemoArgs& a, std::int
       if (!id) return id.error();
       std::this_thread::sleep_for(300ms);
       auto objs = hub.objects();
-      if (!objs || objs->empty()) return Error{94, "control: the spawned cube is not in the scene"};
+      if (!objs || objs->empty())
+        return Error{AppError::kDemoNoCube, "control: the spawned cube is not in the scene"};
       const protocol::ObjectPose cube = objs->front();
       auto f = move_to_position(hub, cube.x_m, cube.y_m, model.scene.grasp_z_m + 0.005);
       if (!f) return f.error();
@@ -330,8 +331,9 @@ Result<DemoOutcome> run_phases(Hub& hub, TwinDb& db, const DemoArgs& a, std::int
                    m_to_mm(d.x_m), m_to_mm(d.y_m));
       }
       if (where.size() != layout.size()) {
-        return Error{95, fmt::format("the robot's webcam found {} cubes on the table, expected {}",
-                                     where.size(), layout.size())};
+        return Error{AppError::kDemoRecognition,
+                     fmt::format("the robot's webcam found {} cubes on the table, expected {}",
+                                 where.size(), layout.size())};
       }
     }
     if (Status s = spawn_all(hub, where); !s) return s.error();
@@ -346,8 +348,9 @@ Result<DemoOutcome> run_phases(Hub& hub, TwinDb& db, const DemoArgs& a, std::int
                  m_to_mm(it.x_m), m_to_mm(it.y_m));
     }
     if (seen->size() != layout.size()) {
-      return Error{95, fmt::format("colour recognition found {} cubes, expected {}", seen->size(),
-                                   layout.size())};
+      return Error{AppError::kDemoRecognition,
+                   fmt::format("colour recognition found {} cubes, expected {}", seen->size(),
+                               layout.size())};
     }
     auto start = hub.fresh_physical(2.0);
     if (!start) return start.error();
@@ -367,7 +370,8 @@ Result<DemoOutcome> run_phases(Hub& hub, TwinDb& db, const DemoArgs& a, std::int
                layout.size());
     (void)hub.end_run(out.in_trays_prediction == static_cast<int>(layout.size()));
     if (out.in_trays_prediction != static_cast<int>(layout.size())) {
-      return Error{96, "the prediction did not sort every cube: the plan is not replayed"};
+      return Error{AppError::kDemoPrediction,
+                   "the prediction did not sort every cube: the plan is not replayed"};
     }
   }
 

@@ -147,7 +147,7 @@ Status serve(Hub& hub, const HubArgs& a, const std::optional<fleet::BrokerAddres
                          : std::string()));
   for (;;) {
     if (hub.interrupted() && !jobs.take_stop_pending()) {
-      return Error{130, "interrupted"};
+      return Error{HubError::kInterrupted, "interrupted"};
     }
     auto c = jobs.take(std::chrono::milliseconds(100));
     if (!c) continue;

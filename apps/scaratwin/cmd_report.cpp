@@ -20,7 +20,7 @@ struct ReportArgs {
 
 Result<std::unique_ptr<TwinDb>> open_existing(const std::string& path) {
   if (!std::filesystem::exists(path)) {
-    return Error{2,
+    return Error{DbError::kNotFound,
                  fmt::format("no database '{}' (run `scaratwin demo` first, or pass --db)", path)};
   }
   return TwinDb::open(path);

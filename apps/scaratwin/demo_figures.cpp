@@ -93,7 +93,7 @@ Status write_results(const std::filesystem::path& path, const std::string& plant
   j["mirror_lost_frames"] = o.lost_frames;
   std::ofstream f(path);
   f << j.dump(2) << "\n";
-  if (!f) return Error{1, "cannot write " + path.string()};
+  if (!f) return Error{AppError::kWriteFailed, "cannot write " + path.string()};
   return Ok{};
 }
 

@@ -80,7 +80,7 @@ Result<EmulatorSide> EmulatorSide::connect(std::uint16_t port) {
   EmulatorSide b;
   b.fd_ = connect_local(port);
   if (b.fd_ < 0) {
-    return Error{97,
+    return Error{AppError::kEmulatorChannel,
                  fmt::format("emulator side channel 127.0.0.1:{}: {}", port, std::strerror(errno))};
   }
   if (auto r = b.command("rate 0"); !r) return r.error();  // no truth lines, replies only
@@ -93,7 +93,8 @@ EmulatorSide::~EmulatorSide() {
 }
 
 Result<std::string> EmulatorSide::command(const std::string& line) {
-  if (!send_line(fd_, line)) return Error{97, "emulator side channel: send failed"};
+  if (!send_line(fd_, line))
+    return Error{AppError::kEmulatorChannel, "emulator side channel: send failed"};
   std::string reply;
   char c = 0;
   while (reply.size() < 65536) {
@@ -103,13 +104,13 @@ Result<std::string> EmulatorSide::command(const std::string& line) {
       reply.push_back(c);
       continue;
     }
-    if (reply.rfind("ERR", 0) == 0) return Error{97, "emulator: " + reply};
+    if (reply.rfind("ERR", 0) == 0) return Error{AppError::kEmulatorChannel, "emulator: " + reply};
     const bool is_truth = reply.rfind("TR ", 0) == 0;
     // a TR line sent before `rate 0` took effect is not the reply (unless we asked for one)
     if (!is_truth || line == "query") return reply;
     reply.clear();
   }
-  return Error{97, "emulator side channel: no reply to '" + line + "'"};
+  return Error{AppError::kEmulatorChannel, "emulator side channel: no reply to '" + line + "'"};
 }
 
 Status EmulatorSide::press(const std::string& button, int ms) {
@@ -143,16 +144,17 @@ Result<std::vector<protocol::ObjectPose>> EmulatorSide::cubes() {
   std::string word;
   std::size_t n = 0;
   in >> word >> n;
-  if (word != "CUBES") return Error{97, "emulator: unexpected reply to cubes: " + *r};
+  if (word != "CUBES")
+    return Error{AppError::kEmulatorChannel, "emulator: unexpected reply to cubes: " + *r};
   std::vector<protocol::ObjectPose> out;
   for (std::size_t i = 0; i < n && in >> word; ++i) {
     // id:colour:x:y:z
     std::vector<std::string> f;
     std::stringstream ws(word);
     for (std::string part; std::getline(ws, part, ':');) f.push_back(part);
-    if (f.size() != 5) return Error{97, "emulator: bad cube in " + *r};
+    if (f.size() != 5) return Error{AppError::kEmulatorChannel, "emulator: bad cube in " + *r};
     auto colour = parse_color(f[1]);
-    if (!colour) return Error{97, "emulator: bad colour in " + *r};
+    if (!colour) return Error{AppError::kEmulatorChannel, "emulator: bad colour in " + *r};
     protocol::ObjectPose o;
     o.id = std::stoi(f[0]);
     o.color = *colour;
@@ -168,7 +170,7 @@ Result<TruthSample> EmulatorSide::query() {
   auto r = command("query");
   if (!r) return r.error();
   auto s = parse_truth_line(*r);
-  if (!s) return Error{97, "emulator: unexpected reply to query: " + *r};
+  if (!s) return Error{AppError::kEmulatorChannel, "emulator: unexpected reply to query: " + *r};
   return *s;
 }
 
@@ -176,9 +178,10 @@ Result<std::unique_ptr<TruthRecorder>> TruthRecorder::start(std::uint16_t port, 
   std::unique_ptr<TruthRecorder> t(new TruthRecorder());
   t->fd_ = connect_local(port);
   if (t->fd_ < 0 || !send_line(t->fd_, fmt::format("rate {}", hz))) {
-    return Error{97, fmt::format("emulator side channel 127.0.0.1:{}: cannot subscribe to the "
-                                 "truth",
-                                 port)};
+    return Error{AppError::kEmulatorChannel,
+                 fmt::format("emulator side channel 127.0.0.1:{}: cannot subscribe to the "
+                             "truth",
+                             port)};
   }
   TruthRecorder* self = t.get();
   t->thread_ = std::thread([self] {

@@ -30,7 +30,7 @@ Result<Rig> start_rig(const RigOptions& o, const std::filesystem::path& log_dir)
   if (!sim) return sim.error();
   rig.sim = std::move(*sim);
   auto listening = rig.sim->wait_for_line("listening on", 30s);
-  if (!listening) return Error{1, "simulator: " + listening.error().message};
+  if (!listening) return Error{AppError::kRigStart, "simulator: " + listening.error().message};
   const size_t colon = listening->rfind(':', listening->find(" (speed"));
   rig.sim_port = static_cast<std::uint16_t>(std::stoi(listening->substr(colon + 1)));
   if (o.companion) {
@@ -69,7 +69,7 @@ Result<Rig> start_rig(const RigOptions& o, const std::filesystem::path& log_dir)
     if (!r) return r.error();
     rig.robot = std::move(*r);
     auto pty = rig.robot->wait_for_line("pty: ", 30s);
-    if (!pty) return Error{1, "emulator: " + pty.error().message};
+    if (!pty) return Error{AppError::kRigStart, "emulator: " + pty.error().message};
     rig.device = pty->substr(pty->find("pty: ") + 5);
     if (auto pl = rig.robot->wait_for_line("plant: ", 1s); pl) {
       rig.plant = pl->substr(pl->find("plant: ") + 7);
@@ -77,7 +77,7 @@ Result<Rig> start_rig(const RigOptions& o, const std::filesystem::path& log_dir)
     }
     fmt::print("physical robot: firmware in the AVR emulator on {}\n", rig.device);
     auto side = rig.robot->wait_for_line("side channel: ", 5s);
-    if (!side) return Error{1, "emulator: " + side.error().message};
+    if (!side) return Error{AppError::kRigStart, "emulator: " + side.error().message};
     side_port = static_cast<std::uint16_t>(std::stoi(side->substr(side->rfind(':') + 1)));
   } else {
     fmt::print("physical robot: {}\n", rig.device);
@@ -105,7 +105,8 @@ Result<Rig> start_rig(const RigOptions& o, const std::filesystem::path& log_dir)
     }
   } else if (!o.camera.empty()) {
     const auto c = o.camera.rfind(':');
-    if (c == std::string::npos) return Error{2, "--camera: expected host:port, got " + o.camera};
+    if (c == std::string::npos)
+      return Error{AppError::kBadOption, "--camera: expected host:port, got " + o.camera};
     host = o.camera.substr(0, c);
     cam_port = static_cast<std::uint16_t>(std::stoi(o.camera.substr(c + 1)));
   }

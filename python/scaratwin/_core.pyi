@@ -14,7 +14,7 @@ _I32 = npt.NDArray[np.int32]
 _Path = str | PathLike[str]
 
 class Error(RuntimeError):
-    """Base of every scaratwin error; ``code`` is the library's error code."""
+    """Base of every scaratwin error; ``code`` is the library's error code (docs/errors.md)."""
 
     code: int
 

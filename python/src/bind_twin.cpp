@@ -311,7 +311,8 @@ void bind_twin(py::module_& m) {
               out.write(png.data(), static_cast<std::streamsize>(png.size()));
               if (!out) {
                 raise(ErrorKind::kStatement,
-                      Error{91, fmt::format("shoot: cannot write '{}'", p.string())});
+                      Error{ScriptError::kWriteFailed,
+                            fmt::format("shoot: cannot write '{}'", p.string())});
               }
             }
             auto img = decode_png(png);

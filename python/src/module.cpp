@@ -33,7 +33,8 @@ std::string shape_of(const py::array& a) {
 void register_errors(py::module_& m) {
   PyObject* base = new_class(m, "Error", PyExc_RuntimeError,
                              "Base of every scaratwin error; `code` is the library's error code "
-                             "(IkError, PlanError, the protocol's ER codes, ...).");
+                             "(IkError 1..9, PlanError 10..19, a protocol ER code N as "
+                             "200 + N, ...: docs/errors.md).");
   g_classes[static_cast<int>(ErrorKind::kError)] = base;
   const py::tuple config_bases = py::make_tuple(py::handle(base), py::handle(PyExc_ValueError));
   g_classes[static_cast<int>(ErrorKind::kConfig)] =

@@ -302,7 +302,8 @@ std::vector<PointResidual> marker_residuals(const Measurements& m, const Eigen::
 Result<Fit> fit(const RobotModel& base, const CameraPrior& camera, const Measurements& given,
                 const FitOptions& o) {
   if (auto missing = missing_measurement(base, given)) {
-    return Error{1, "calibration needs more measurements: " + *missing};
+    return Error{CalibrationError::kNotEnoughData,
+                 "calibration needs more measurements: " + *missing};
   }
   // A marker partly hidden or mistaken (a reflection, a cut-off disc) puts its centroid
   // pixels away from where one robot can explain it: such points are set aside, the worst
@@ -325,22 +326,25 @@ Result<Fit> fit(const RobotModel& base, const CameraPrior& camera, const Measure
       ++outliers;
     }
     if (outliers > o.max_outlier_fraction * given_points) {
-      return Error{1, fmt::format("calibration: {} of {} marker points do not fit one robot "
-                                  "(each more than {:.1f} px off): a belt may have slipped or "
-                                  "steps been lost during the routine, or the markers be hard "
-                                  "to see; check the belts and the light and calibrate again "
-                                  "(no overlay written)",
-                                  outliers, given_points, o.outlier_px)};
+      return Error{CalibrationError::kInconsistent,
+                   fmt::format("calibration: {} of {} marker points do not fit one robot "
+                               "(each more than {:.1f} px off): a belt may have slipped or "
+                               "steps been lost during the routine, or the markers be hard "
+                               "to see; check the belts and the light and calibrate again "
+                               "(no overlay written)",
+                               outliers, given_points, o.outlier_px)};
     }
     if (auto missing = missing_measurement(base, m)) {
-      return Error{1, fmt::format("calibration: with {} marker points set aside as outliers "
-                                  "the measurements lack {}",
-                                  outliers, *missing)};
+      return Error{CalibrationError::kNotEnoughData,
+                   fmt::format("calibration: with {} marker points set aside as outliers "
+                               "the measurements lack {}",
+                               outliers, *missing)};
     }
     s = solve(prob);
   }
   if (s.improper) {
-    return Error{1, "calibration: the solver refused its input (no measurements?)"};
+    return Error{CalibrationError::kSolver,
+                 "calibration: the solver refused its input (no measurements?)"};
   }
 
   Fit out;
@@ -367,9 +371,10 @@ Result<Fit> fit(const RobotModel& base, const CameraPrior& camera, const Measure
     const Eigen::VectorXd null = svd.matrixV().col(kParamCount - 1);
     Eigen::Index worst = 0;
     null.cwiseAbs().maxCoeff(&worst);
-    return Error{1, fmt::format("calibration: {} is not determined by these measurements; it "
-                                "needs {}",
-                                kParams[worst].key, kParams[worst].needs)};
+    return Error{CalibrationError::kNotDetermined,
+                 fmt::format("calibration: {} is not determined by these measurements; it "
+                             "needs {}",
+                             kParams[worst].key, kParams[worst].needs)};
   }
 
   // the residuals in their units
@@ -390,12 +395,13 @@ Result<Fit> fit(const RobotModel& base, const CameraPrior& camera, const Measure
   out.touch_rms_m = out.touch_offs > 0 ? std::sqrt(touch2 / out.touch_offs) : 0.0;
   if (out.pixel_rms > o.max_pixel_rms || out.touch_rms_m > o.max_touch_rms_m) {
     return Error{
-        1, fmt::format("calibration: the measurements do not fit one robot (residual {:.2f} px, "
-                       "limit {:.2f} px; touch-offs {:.2f} mm, limit {:.2f} mm): a belt may "
-                       "have slipped or steps been lost during the routine, or a marker been "
-                       "mistaken; check the belts and calibrate again (no overlay written)",
-                       out.pixel_rms, o.max_pixel_rms, out.touch_rms_m * 1e3,
-                       o.max_touch_rms_m * 1e3)};
+        CalibrationError::kInconsistent,
+        fmt::format("calibration: the measurements do not fit one robot (residual {:.2f} px, "
+                    "limit {:.2f} px; touch-offs {:.2f} mm, limit {:.2f} mm): a belt may "
+                    "have slipped or steps been lost during the routine, or a marker been "
+                    "mistaken; check the belts and calibrate again (no overlay written)",
+                    out.pixel_rms, o.max_pixel_rms, out.touch_rms_m * 1e3,
+                    o.max_touch_rms_m * 1e3)};
   }
 
   // standard errors: (J^T J)^-1 scaled by the residual variance per degree of freedom
@@ -408,10 +414,11 @@ Result<Fit> fit(const RobotModel& base, const CameraPrior& camera, const Measure
     out.std_error[i] = std::sqrt(std::max(cov(i, i), 0.0)) * kParams[i].scale_si;
     if (out.std_error[i] > o.max_normalised_error * kParams[i].scale_si) {
       return Error{
-          1, fmt::format("calibration: {} is poorly determined (std error {:.3g} {}); "
-                         "it needs more {}",
-                         kParams[i].key, out.std_error[i] / kParams[i].to_si,
-                         kParams[i].key.substr(kParams[i].key.rfind('_') + 1), kParams[i].needs)};
+          CalibrationError::kNotDetermined,
+          fmt::format("calibration: {} is poorly determined (std error {:.3g} {}); "
+                      "it needs more {}",
+                      kParams[i].key, out.std_error[i] / kParams[i].to_si,
+                      kParams[i].key.substr(kParams[i].key.rfind('_') + 1), kParams[i].needs)};
     }
   }
   out.camera = camera_for(camera.camera, t);

@@ -346,8 +346,8 @@ Result<RobotModel> parse_robot_config(std::string_view toml_text, std::string_vi
   try {
     root = toml::parse(toml_text, std::string(source));
   } catch (const toml::parse_error& e) {
-    return Error{1, fmt::format("{}:{}:{}: {}", source, e.source().begin.line,
-                                e.source().begin.column, e.description())};
+    return Error{ConfigError::kInvalid, fmt::format("{}:{}:{}: {}", source, e.source().begin.line,
+                                                    e.source().begin.column, e.description())};
   }
   std::string error;
   TableReader top(&root, "", &error);
@@ -355,28 +355,34 @@ Result<RobotModel> parse_robot_config(std::string_view toml_text, std::string_vi
   // calibration identified; nothing else
   if (const toml::node* base = root.get("base")) {
     const std::optional<std::string> ref = base->value<std::string>();
-    if (!ref) return Error{1, fmt::format("{}: base: expected the path of a robot description", source)};
+    if (!ref)
+      return Error{ConfigError::kInvalid,
+                   fmt::format("{}: base: expected the path of a robot description", source)};
     std::filesystem::path path(*ref);
     if (path.is_relative()) path = std::filesystem::path(source).parent_path() / path;
     if (path == std::filesystem::path(source)) {
-      return Error{1, fmt::format("{}: base names the overlay itself", source)};
+      return Error{ConfigError::kInvalid, fmt::format("{}: base names the overlay itself", source)};
     }
     // a chain of overlays is fine; a circle of them is not
     thread_local int depth = 0;
-    if (depth >= 8) return Error{1, fmt::format("{}: base: more than 8 overlays deep (a circle?)", source)};
+    if (depth >= 8)
+      return Error{ConfigError::kInvalid,
+                   fmt::format("{}: base: more than 8 overlays deep (a circle?)", source)};
     ++depth;
     auto base_model = load_robot_config(path);
     --depth;
     if (!base_model) {
-      return Error{1, fmt::format("{}: its base description: {}", source, base_model.error().message)};
+      return Error{ConfigError::kInvalid,
+                   fmt::format("{}: its base description: {}", source, base_model.error().message)};
     }
     RobotModel m = std::move(base_model).value();
     std::string unused;
     top.string("base", unused);
     read_calibration(top, m);
     top.reject_unknown("base, calibration (an overlay refines its base description only)");
-    if (!error.empty()) return Error{1, fmt::format("{}: {}", source, error)};
-    if (Status s = validate(m); !s) return Error{1, fmt::format("{}: {}", source, s.error().message)};
+    if (!error.empty()) return Error{ConfigError::kInvalid, fmt::format("{}: {}", source, error)};
+    if (Status s = validate(m); !s)
+      return Error{ConfigError::kInvalid, fmt::format("{}: {}", source, s.error().message)};
     return m;
   }
   RobotModel m = paper_robot();
@@ -488,17 +494,19 @@ Result<RobotModel> parse_robot_config(std::string_view toml_text, std::string_vi
   }
   read_physical(top, m.physical);
   top.reject_unknown("name, dh, limits, home, motors, servos, endstops, scene, drive, as_built");
-  if (!error.empty()) return Error{1, fmt::format("{}: {}", source, error)};
-  if (Status s = validate(m); !s) return Error{1, fmt::format("{}: {}", source, s.error().message)};
+  if (!error.empty()) return Error{ConfigError::kInvalid, fmt::format("{}: {}", source, error)};
+  if (Status s = validate(m); !s)
+    return Error{ConfigError::kInvalid, fmt::format("{}: {}", source, s.error().message)};
   return m;
 }
 
 Result<RobotModel> load_robot_config(const std::filesystem::path& path) {
   std::ifstream in(path, std::ios::binary);
   if (!in) {
-    return Error{2, fmt::format("cannot read robot description '{}': no such file or not "
-                                "readable (pass --config FILE or set SCARATWIN_CONFIG)",
-                                path.string())};
+    return Error{ConfigError::kNotFound,
+                 fmt::format("cannot read robot description '{}': no such file or not "
+                             "readable (pass --config FILE or set SCARATWIN_CONFIG)",
+                             path.string())};
   }
   std::stringstream ss;
   ss << in.rdbuf();
@@ -518,8 +526,8 @@ Result<RobotModel> load_robot_config_or_default(const std::filesystem::path& pat
     std::error_code ec;
     const char* env = std::getenv("SCARATWIN_CONFIG");
     if ((env == nullptr || *env == '\0') && !std::filesystem::exists(def, ec)) {
-      return Error{2, missing_data_message("robot description", def) +
-                          " (or pass --config FILE, or set SCARATWIN_CONFIG)"};
+      return Error{ConfigError::kNotFound, missing_data_message("robot description", def) +
+                                               " (or pass --config FILE, or set SCARATWIN_CONFIG)"};
     }
     return load_robot_config(def);
   }

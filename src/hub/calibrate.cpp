@@ -208,7 +208,7 @@ Result<CalibrationRun> calibrate(Hub& hub, NetCamera& camera, CalibrationOperato
                                  const CalibrationOptions& o) {
   const RobotModel& base = hub.model();
   if (is_calibrated(base)) {
-    return Error{2,
+    return Error{CalibrationError::kCalibratedBase,
                  "calibrate: the hub runs a calibrated description; calibrate with its base "
                  "description (the overlay's `base`)"};
   }
@@ -288,9 +288,10 @@ Result<CalibrationRun> calibrate(Hub& hub, NetCamera& camera, CalibrationOperato
     }
   }
   if (unseen > static_cast<int>(poses.size()) / 4) {
-    return Error{1, fmt::format("calibration: the tool marker was not found in {} of {} pictures "
-                                "(is the marker on the tool, and the webcam's view clear?)",
-                                unseen, poses.size())};
+    return Error{CalibrationError::kMarkerNotFound,
+                 fmt::format("calibration: the tool marker was not found in {} of {} pictures "
+                             "(is the marker on the tool, and the webcam's view clear?)",
+                             unseen, poses.size())};
   }
 
   // 3. touch-offs, at three wrist angles
@@ -304,13 +305,14 @@ Result<CalibrationRun> calibrate(Hub& hub, NetCamera& camera, CalibrationOperato
     if (!now) return now.error();
     // the description's IK near the current joints for the position; then the wrist joint
     // at this mark's angle (it hardly moves the tool point: the operator makes up for it)
-    auto q_above = Result<JointVector>(Error{1, "no wrist angle"});
+    auto q_above = Result<JointVector>(Error{CalibrationError::kUnreachable, "no wrist angle"});
     for (double yaw = -180.0; yaw < 180.0 && !q_above; yaw += 30.0) {
       q_above = inverse(base, ToolPose{p[0], p[1], p[2] + 0.008, yaw * kDeg}, now->q);
     }
     if (!q_above) {
-      return Error{1, fmt::format("calibration: {} at ({:.0f}, {:.0f}) mm is out of reach: {}",
-                                  name, p[0] * 1e3, p[1] * 1e3, q_above.error().message)};
+      return Error{CalibrationError::kUnreachable,
+                   fmt::format("calibration: {} at ({:.0f}, {:.0f}) mm is out of reach: {}", name,
+                               p[0] * 1e3, p[1] * 1e3, q_above.error().message)};
     }
     (*q_above)[3] = kWrist[i % 3] * kDeg;
     if (Status s = move_to(hub, *q_above); !s) return s.error();

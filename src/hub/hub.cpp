@@ -150,7 +150,7 @@ Result<std::unique_ptr<Hub>> Hub::connect(const RobotModel& model, const HubOpti
   }
   auto hi = t->sim_->request(sim_hello(o), ms(o.hello_timeout_s));
   if (!hi) {
-    if (hi.error().code == pr::kErrAccess) {
+    if (hi.error().code == protocol_error_code(pr::kErrAccess)) {
       return hub_error(fmt::format("simulator at {}:{} refused the hub: {}", o.sim_host, o.sim_port,
                                    access_refusal(hi.error().message, o)));
     }

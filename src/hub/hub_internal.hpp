@@ -11,7 +11,7 @@
 
 namespace scaratwin::hub_detail {
 
-inline constexpr int kHubError = 80;
+inline constexpr int kHubError = error_code(HubError::kFailed);
 
 inline std::chrono::milliseconds ms(double s) {
   return std::chrono::milliseconds(static_cast<long long>(std::llround(s * 1000)));

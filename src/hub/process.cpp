@@ -25,11 +25,12 @@ Result<std::unique_ptr<ChildProcess>> ChildProcess::start(const std::filesystem:
                                                           const std::vector<std::string>& args,
                                                           const std::filesystem::path& log) {
   if (access(exe.c_str(), X_OK) != 0) {
-    return Error{70, fmt::format("cannot run '{}': {} (is the build complete?)", exe.string(),
-                                 std::strerror(errno))};
+    return Error{HubError::kStartFailed, fmt::format("cannot run '{}': {} (is the build complete?)",
+                                                     exe.string(), std::strerror(errno))};
   }
   int fds[2];
-  if (pipe2(fds, O_CLOEXEC) != 0) return Error{70, fmt::format("pipe: {}", std::strerror(errno))};
+  if (pipe2(fds, O_CLOEXEC) != 0)
+    return Error{HubError::kStartFailed, fmt::format("pipe: {}", std::strerror(errno))};
   posix_spawn_file_actions_t fa;
   posix_spawn_file_actions_init(&fa);
   posix_spawn_file_actions_adddup2(&fa, fds[1], STDOUT_FILENO);
@@ -46,7 +47,8 @@ Result<std::unique_ptr<ChildProcess>> ChildProcess::start(const std::filesystem:
   close(fds[1]);
   if (rc != 0) {
     close(fds[0]);
-    return Error{70, fmt::format("cannot start '{}': {}", exe.string(), std::strerror(rc))};
+    return Error{HubError::kStartFailed,
+                 fmt::format("cannot start '{}': {}", exe.string(), std::strerror(rc))};
   }
   std::unique_ptr<ChildProcess> p(new ChildProcess());
   p->pid_ = pid;
@@ -93,13 +95,15 @@ Result<std::string> ChildProcess::wait_for_line(const std::string& needle,
       if (eof_) break;
     }
     if (std::chrono::steady_clock::now() > deadline) {
-      return Error{71, fmt::format("{} did not print '{}' within {} ms; its last output:\n{}",
-                                   name_, needle, timeout.count(), output_tail())};
+      return Error{HubError::kNotReady,
+                   fmt::format("{} did not print '{}' within {} ms; its last output:\n{}", name_,
+                               needle, timeout.count(), output_tail())};
     }
     std::this_thread::sleep_for(std::chrono::milliseconds(10));
   }
-  return Error{72, fmt::format("{} exited before printing '{}'; its last output:\n{}", name_,
-                               needle, output_tail())};
+  return Error{HubError::kExited,
+               fmt::format("{} exited before printing '{}'; its last output:\n{}", name_, needle,
+                           output_tail())};
 }
 
 bool ChildProcess::running() {

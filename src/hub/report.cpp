@@ -217,7 +217,7 @@ Status write_report(TwinDb& db, const RobotModel& model, int64_t run_id,
     auto metrics = db.metrics(r.id);
     auto events = db.events(r.id);
     if (!virt || !phys || !planned || !lat || !metrics || !events) {
-      return Error{40, fmt::format("report: cannot read run {}", r.id)};
+      return Error{DbError::kNoRun, fmt::format("report: cannot read run {}", r.id)};
     }
     if (r.id != top->id || !virt->empty() || !phys->empty()) {
       body += fmt::format("<h2>Run {}: {} ({}), {:.1f} s, {}</h2>\n", r.id, r.kind, r.label,
@@ -284,11 +284,13 @@ Status write_report(TwinDb& db, const RobotModel& model, int64_t run_id,
     out << "<!doctype html>\n<html><head><meta charset='utf-8'><title>scaratwin report " << top->id
         << "</title><style>" << kStyle << "</style></head><body>\n"
         << body << "</body></html>\n";
-    if (!out) return Error{41, fmt::format("cannot write report '{}'", tmp.string())};
+    if (!out)
+      return Error{DbError::kWriteFailed, fmt::format("cannot write report '{}'", tmp.string())};
   }
   std::filesystem::rename(tmp, html, ec);
   if (ec)
-    return Error{41, fmt::format("cannot write report '{}': {}", html.string(), ec.message())};
+    return Error{DbError::kWriteFailed,
+                 fmt::format("cannot write report '{}': {}", html.string(), ec.message())};
   return Ok{};
 }
 

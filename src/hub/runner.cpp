@@ -68,7 +68,8 @@ Result<std::string> execute_one(Hub& hub, const Statement& st) {
       if (!st.text.empty()) {
         std::ofstream out(st.text, std::ios::binary);
         out.write(png->data(), static_cast<std::streamsize>(png->size()));
-        if (!out) return Error{91, fmt::format("cannot write '{}'", st.text)};
+        if (!out)
+          return Error{ScriptError::kWriteFailed, fmt::format("cannot write '{}'", st.text)};
         return fmt::format("{} bytes of PNG saved to {}", png->size(), st.text);
       }
       return fmt::format("{} bytes of PNG", png->size());
@@ -93,7 +94,8 @@ Result<std::string> execute_one(Hub& hub, const Statement& st) {
         if (!plan) return plan.error();
         return run_planned(hub, plan->trajectory);
       }
-      return Error{92, fmt::format("no cube {} in the scene", static_cast<int>(v[0]))};
+      return Error{ScriptError::kNoSuchCube,
+                   fmt::format("no cube {} in the scene", static_cast<int>(v[0]))};
     }
     case StatementKind::kSort: {
       auto items = recognise_cubes(hub, model);
@@ -135,7 +137,7 @@ Result<std::string> execute_one(Hub& hub, const Statement& st) {
       return text;
     }
   }
-  return Error{93, "unknown statement"};
+  return Error{ScriptError::kUnknownStatement, "unknown statement"};
 }
 
 }  // namespace

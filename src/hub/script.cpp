@@ -11,7 +11,7 @@
 namespace scaratwin {
 namespace {
 
-constexpr int kScriptError = 50;
+constexpr int kScriptError = error_code(ScriptError::kLine);
 
 struct Spec {
   const char* word;

@@ -15,7 +15,7 @@
 namespace scaratwin {
 namespace {
 
-constexpr int kTaskError = 90;
+constexpr int kTaskError = error_code(HubError::kTask);
 
 Error task_error(std::string message) { return Error{kTaskError, std::move(message)}; }
 

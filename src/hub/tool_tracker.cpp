@@ -51,10 +51,11 @@ Result<std::unique_ptr<NetCamera>> NetCamera::connect(const std::string& host, s
   addr.sin_family = AF_INET;
   addr.sin_port = htons(port);
   if (::inet_pton(AF_INET, host.c_str(), &addr.sin_addr) != 1) {
-    return Error{1, "camera: '" + host + "' is not an IPv4 address"};
+    return Error{HubError::kCamera, "camera: '" + host + "' is not an IPv4 address"};
   }
   if (c->fd_ < 0 || ::connect(c->fd_, reinterpret_cast<sockaddr*>(&addr), sizeof addr) != 0) {
-    return Error{1, fmt::format("camera {}:{}: {}", host, port, std::strerror(errno))};
+    return Error{HubError::kCamera,
+                 fmt::format("camera {}:{}: {}", host, port, std::strerror(errno))};
   }
   int one = 1;
   setsockopt(c->fd_, IPPROTO_TCP, TCP_NODELAY, &one, sizeof one);
@@ -64,7 +65,7 @@ Result<std::unique_ptr<NetCamera>> NetCamera::connect(const std::string& host, s
 Result<CameraFrame> NetCamera::grab(int width_px, int height_px) {
   const std::string req = fmt::format("grab {} {}\n", width_px, height_px);
   if (::send(fd_, req.data(), req.size(), MSG_NOSIGNAL) != static_cast<ssize_t>(req.size())) {
-    return Error{1, "camera: the connection is gone"};
+    return Error{HubError::kCamera, "camera: the connection is gone"};
   }
   // header line, then the pixels and a newline
   auto fill = [&](std::size_t want) -> bool {
@@ -81,11 +82,12 @@ Result<CameraFrame> NetCamera::grab(int width_px, int height_px) {
   };
   std::size_t nl;
   while ((nl = buf_.find('\n')) == std::string::npos) {
-    if (!fill(buf_.size() + 1)) return Error{1, "camera: no reply to grab within 10 s"};
+    if (!fill(buf_.size() + 1))
+      return Error{HubError::kCamera, "camera: no reply to grab within 10 s"};
   }
   const std::string header = buf_.substr(0, nl);
   buf_.erase(0, nl + 1);
-  if (header.rfind("ERR", 0) == 0) return Error{1, "camera: " + header};
+  if (header.rfind("ERR", 0) == 0) return Error{HubError::kCamera, "camera: " + header};
   std::istringstream in(header);
   std::string word;
   CameraFrame f;
@@ -93,9 +95,9 @@ Result<CameraFrame> NetCamera::grab(int width_px, int height_px) {
   in >> word >> f.number >> f.device_us >> f.image.width >> f.image.height >> bytes;
   if (word != "FRAME" || !in ||
       bytes != static_cast<std::size_t>(f.image.width) * f.image.height * 3) {
-    return Error{1, "camera: bad frame header '" + header + "'"};
+    return Error{HubError::kCamera, "camera: bad frame header '" + header + "'"};
   }
-  if (!fill(bytes + 1)) return Error{1, "camera: frame cut short"};
+  if (!fill(bytes + 1)) return Error{HubError::kCamera, "camera: frame cut short"};
   f.image.rgb.assign(buf_.begin(), buf_.begin() + static_cast<std::ptrdiff_t>(bytes));
   buf_.erase(0, bytes + 1);
   return f;
@@ -111,7 +113,8 @@ void PlaneCorrection::add(const std::array<double, 2>& guess, const std::array<d
 Status PlaneCorrection::fit() {
   const std::size_t n = guess_.size();
   if (n < 20) {
-    return Error{1, fmt::format("tracker: {} learning samples, at least 20 needed", n)};
+    return Error{HubError::kTracker,
+                 fmt::format("tracker: {} learning samples, at least 20 needed", n)};
   }
   // how the samples spread: the cubic terms are observable only over an area; along a
   // single path (one arc, out and back) only an offset and a linear map are
@@ -165,7 +168,8 @@ std::array<double, 2> PlaneCorrection::apply(const std::array<double, 2>& guess)
 
 Result<std::unique_ptr<ToolTracker>> ToolTracker::start(Hub& hub, const TrackerOptions& o) {
   if (!(o.fps > 0.0 && o.fps <= 100.0) || o.persist < 1 || !(o.threshold_m > 0.0)) {
-    return Error{2, "tracker: fps must be in (0, 100], persist >= 1, threshold > 0"};
+    return Error{HubError::kBadOption,
+                 "tracker: fps must be in (0, 100], persist >= 1, threshold > 0"};
   }
   auto cam = NetCamera::connect(o.host, o.port);
   if (!cam) return cam.error();

@@ -15,7 +15,7 @@
 namespace scaratwin {
 namespace {
 
-constexpr int kDbError = 40;
+constexpr int kDbError = error_code(DbError::kSqlite);
 constexpr int kAutoCommitRows = 2000;
 
 constexpr const char* kSchema = R"sql(
@@ -382,7 +382,7 @@ Result<RunInfo> TwinDb::run(int64_t id) {
   if (!s) return s.error();
   sqlite3_bind_int64(*s, 1, id);
   if (sqlite3_step(*s) != SQLITE_ROW) {
-    return Error{kDbError + 1, fmt::format("no run {} in '{}'", id, path_.string())};
+    return Error{DbError::kNoRun, fmt::format("no run {} in '{}'", id, path_.string())};
   }
   return read_run(*s);
 }
@@ -462,7 +462,7 @@ Result<int64_t> TwinDb::count(std::string_view table, int64_t run) {
   static constexpr std::string_view kTables[] = {"samples",   "commands", "events",
                                                  "latencies", "images",   "metrics"};
   if (std::find(std::begin(kTables), std::end(kTables), table) == std::end(kTables)) {
-    return Error{kDbError + 2, fmt::format("no table '{}'", table)};
+    return Error{DbError::kNoTable, fmt::format("no table '{}'", table)};
   }
   if (Status f = flush(); !f) return f.error();
   const std::string sql = fmt::format("SELECT COUNT(*) FROM {} WHERE run = {}", table, run);
@@ -480,7 +480,9 @@ Status TwinDb::export_csv(int64_t run, const std::filesystem::path& dir) {
   if (Status f = flush(); !f) return f;
   std::error_code ec;
   std::filesystem::create_directories(dir, ec);
-  if (ec) return Error{kDbError, fmt::format("cannot create '{}': {}", dir.string(), ec.message())};
+  if (ec)
+    return Error{DbError::kWriteFailed,
+                 fmt::format("cannot create '{}': {}", dir.string(), ec.message())};
   struct Table {
     const char* file;
     const char* sql;
@@ -525,7 +527,9 @@ Status TwinDb::export_csv(int64_t run, const std::filesystem::path& dir) {
       out << '\n';
     }
     sqlite3_finalize(s);
-    if (!out) return Error{kDbError, fmt::format("cannot write '{}'", (dir / t.file).string())};
+    if (!out)
+      return Error{DbError::kWriteFailed,
+                   fmt::format("cannot write '{}'", (dir / t.file).string())};
   }
   return Ok{};
 }

@@ -47,7 +47,7 @@ RobotModel paper_robot() {
 
 namespace {
 
-Error invalid(std::string message) { return Error{1, std::move(message)}; }
+Error invalid(std::string message) { return Error{ConfigError::kInvalid, std::move(message)}; }
 
 bool finite_positive(double v) { return std::isfinite(v) && v > 0.0; }
 
@@ -244,7 +244,8 @@ Result<CubeColor> parse_color(std::string_view name) {
   if (name == "red") return CubeColor::kRed;
   if (name == "green") return CubeColor::kGreen;
   if (name == "blue") return CubeColor::kBlue;
-  return Error{1, fmt::format("unknown colour '{}': expected red, green or blue", name)};
+  return Error{ConfigError::kUnknownColour,
+               fmt::format("unknown colour '{}': expected red, green or blue", name)};
 }
 
 }  // namespace scaratwin

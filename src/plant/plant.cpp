@@ -53,12 +53,12 @@ Result<std::unique_ptr<Plant>> Plant::create(const RobotModel& description, cons
                                              const PlantOptions& options) {
   if (!(options.timestep_s >= 1e-4 && options.timestep_s <= 0.005) || options.substeps < 1 ||
       options.timestep_s / options.substeps > 1e-4) {
-    return Error{1,
+    return Error{PlantError::kBadArgument,
                  "plant: timestep_s must be in [0.1, 5] ms with rotor steps of at most "
                  "100 us (substeps)"};
   }
   if (!(options.payload_kg >= 0.0 && options.payload_kg <= 2.0)) {
-    return Error{1, "plant: payload_kg must be in [0, 2] kg"};
+    return Error{PlantError::kBadArgument, "plant: payload_kg must be in [0, 2] kg"};
   }
   std::unique_ptr<Plant> p(new Plant());
   p->description_ = description;
@@ -66,7 +66,8 @@ Result<std::unique_ptr<Plant>> Plant::create(const RobotModel& description, cons
   p->as_built_ = as_built;
   p->options_ = options;
   if (Status s = validate(p->built_); !s) {
-    return Error{1, "plant: the as-built robot is not valid: " + s.error().message};
+    return Error{PlantError::kInvalidRobot,
+                 "plant: the as-built robot is not valid: " + s.error().message};
   }
   sim::SimOptions so;
   so.mjcf.timestep_s = options.timestep_s;
@@ -286,7 +287,8 @@ Result<sim::CubeState> Plant::place_cube(CubeColor color, double x_m, double y_m
 }
 
 Status Plant::set_payload(double mass_kg) {
-  if (!(mass_kg >= 0.0 && mass_kg <= 2.0)) return Error{1, "payload must be in [0, 2] kg"};
+  if (!(mass_kg >= 0.0 && mass_kg <= 2.0))
+    return Error{PlantError::kBadArgument, "payload must be in [0, 2] kg"};
   wake();
   sim_->set_payload(mass_kg);
   return Ok{};

@@ -56,7 +56,7 @@ class Writer {
   Status finish(std::string& out) {
     if (!error_ && !encoder_.end()) {
       const std::uint8_t e = encoder_.error();
-      error_ = Error{e, "encode " + code_ + ": " + core::error_name(e)};
+      error_ = Error{protocol_error_code(e), "encode " + code_ + ": " + core::error_name(e)};
     }
     if (error_) return *error_;
     out.append(encoder_.data(), encoder_.size());
@@ -66,7 +66,7 @@ class Writer {
  private:
   void fail(const char* name, const std::string& value, const char* valid) {
     if (!error_) {
-      error_ = Error{core::kErrBadValue,
+      error_ = Error{protocol_error_code(core::kErrBadValue),
                      "encode " + code_ + ": " + name + " = " + value + "; valid: " + valid};
     }
   }
@@ -269,9 +269,9 @@ Status append_any(std::string& out, const Direction& message) {
   if constexpr (std::is_same_v<Direction, TcpFromSim>) {
     if (const auto* image = std::get_if<Image>(&message)) {
       if (image->png.size() > core::kMaxImageBytes) {
-        return Error{core::kErrPayloadTooLarge, "encode IM: " + std::to_string(image->png.size()) +
-                                                    " bytes of PNG; valid: at most " +
-                                                    std::to_string(core::kMaxImageBytes)};
+        return Error{protocol_error_code(core::kErrPayloadTooLarge),
+                     "encode IM: " + std::to_string(image->png.size()) +
+                         " bytes of PNG; valid: at most " + std::to_string(core::kMaxImageBytes)};
       }
     }
   }

@@ -51,11 +51,13 @@ Result<std::unique_ptr<AvrMachine>> AvrMachine::load(const std::string& elf_path
   m->fw_ = static_cast<elf_firmware_t*>(std::calloc(1, sizeof(elf_firmware_t)));
   elf_firmware_t& fw = *m->fw_;
   if (elf_read_firmware(elf_path.c_str(), &fw) != 0) {
-    return Error{1, "cannot read firmware ELF '" + elf_path +
-                        "': build it (target firmware_uno) or pass --firmware PATH"};
+    return Error{EmulatorError::kFirmware,
+                 "cannot read firmware ELF '" + elf_path +
+                     "': build it (target firmware_uno) or pass --firmware PATH"};
   }
   avr_t* avr = avr_make_mcu_by_name(mcu.c_str());
-  if (avr == nullptr) return Error{1, "simavr does not know the MCU '" + mcu + "'"};
+  if (avr == nullptr)
+    return Error{EmulatorError::kFirmware, "simavr does not know the MCU '" + mcu + "'"};
   avr_init(avr);
   std::snprintf(fw.mmcu, sizeof fw.mmcu, "%s", mcu.c_str());
   fw.frequency = frequency_hz;

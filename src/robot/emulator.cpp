@@ -61,14 +61,15 @@ Result<std::vector<ScenarioStep>> parse_scenario(const std::string& text) {
     double t_ms = 0;
     if (!(ls >> t_ms)) {
       if (line.find_first_not_of(" \t\r") == std::string::npos) continue;
-      return Error{1, "scenario line " + std::to_string(line_no) + ": '" + line +
-                          "' does not start with a time in ms"};
+      return Error{EmulatorError::kBadScenario, "scenario line " + std::to_string(line_no) + ": '" +
+                                                    line + "' does not start with a time in ms"};
     }
     std::string rest;
     std::getline(ls >> std::ws, rest);
     if (!rest.empty() && rest.back() == '\r') rest.pop_back();
     if (rest.empty()) {
-      return Error{1, "scenario line " + std::to_string(line_no) + ": no command after the time"};
+      return Error{EmulatorError::kBadScenario,
+                   "scenario line " + std::to_string(line_no) + ": no command after the time"};
     }
     steps.push_back({t_ms / 1000.0, rest});
   }
@@ -89,7 +90,9 @@ Result<std::unique_ptr<Emulator>> Emulator::create(const EmulatorOptions& option
   std::vector<ScenarioStep> scenario;
   if (!options.scenario.empty()) {
     std::ifstream f(options.scenario);
-    if (!f) return Error{1, "cannot read scenario file '" + options.scenario + "'"};
+    if (!f)
+      return Error{EmulatorError::kBadScenario,
+                   "cannot read scenario file '" + options.scenario + "'"};
     std::stringstream ss;
     ss << f.rdbuf();
     auto parsed = parse_scenario(ss.str());
@@ -108,11 +111,11 @@ Result<std::unique_ptr<Emulator>> Emulator::create(const EmulatorOptions& option
   if (options.plant) {
     auto plant = plant::Plant::create(options.plant->description, options.plant->as_built,
                                       options.plant->options);
-    if (!plant) return Error{1, "the physical world: " + plant.error().message};
+    if (!plant) return Error{EmulatorError::kSetup, "the physical world: " + plant.error().message};
     e->plant_ = std::move(plant).value();
     if (options.camera_port >= 0) {
       auto cam = SideChannel::listen(static_cast<std::uint16_t>(options.camera_port));
-      if (!cam) return Error{1, "the camera's port: " + cam.error().message};
+      if (!cam) return Error{EmulatorError::kSetup, "the camera's port: " + cam.error().message};
       cam->set_blocking_replies(true);
       e->camera_port_.emplace(std::move(cam).value());
     }
@@ -130,9 +133,10 @@ Result<std::unique_ptr<Emulator>> Emulator::create(const EmulatorOptions& option
     if (std::find_if(std::begin(kVerbs), std::end(kVerbs),
                      [&](const char* v) { return verb == v; }) == std::end(kVerbs)) {
       return Error{
-          1, "scenario command '" + s.command +
-                 "' is unknown: use press, release, cut, lose, corrupt, endstop, place, clear, "
-                 "payload or pattern"};
+          EmulatorError::kBadScenario,
+          "scenario command '" + s.command +
+              "' is unknown: use press, release, cut, lose, corrupt, endstop, place, clear, "
+              "payload or pattern"};
     }
   }
   return e;
@@ -173,9 +177,10 @@ Status Emulator::load_eeprom() {
   std::vector<std::uint8_t> bytes((std::istreambuf_iterator<char>(f)),
                                   std::istreambuf_iterator<char>());
   if (!avr_->set_eeprom(bytes)) {
-    return Error{1, fmt::format("--eeprom {}: {} bytes, but the {}'s EEPROM holds {} (give a file "
-                                "an earlier run wrote, or a new path)",
-                                path, bytes.size(), options_.mcu, eeprom_saved_.size())};
+    return Error{EmulatorError::kBadOption,
+                 fmt::format("--eeprom {}: {} bytes, but the {}'s EEPROM holds {} (give a file "
+                             "an earlier run wrote, or a new path)",
+                             path, bytes.size(), options_.mcu, eeprom_saved_.size())};
   }
   eeprom_saved_ = std::move(bytes);
   return Ok{};
@@ -488,8 +493,8 @@ Status Emulator::run(const volatile bool& stop) {
   std::uint64_t idle_to = 0;
   while (!stop) {
     if (!avr_->run_until((idle_to > avr_->cycle() ? idle_to : avr_->cycle()) + chunk)) {
-      return Error{1, "the firmware stopped or crashed at t = " +
-                          std::to_string(avr_->sim_seconds()) + " s"};
+      return Error{EmulatorError::kFirmware, "the firmware stopped or crashed at t = " +
+                                                 std::to_string(avr_->sim_seconds()) + " s"};
     }
     const double now_s = avr_->sim_seconds();
     save_eeprom_if_changed();  // before the firmware's reply to a CF can leave (pty_.flush)

@@ -14,16 +14,19 @@ namespace scaratwin::robot {
 Result<PtyLink> PtyLink::open() {
   PtyLink link;
   link.master_ = posix_openpt(O_RDWR | O_NOCTTY);
-  if (link.master_ < 0) return Error{1, std::string("posix_openpt: ") + std::strerror(errno)};
+  if (link.master_ < 0)
+    return Error{EmulatorError::kPty, std::string("posix_openpt: ") + std::strerror(errno)};
   if (grantpt(link.master_) != 0 || unlockpt(link.master_) != 0) {
-    return Error{1, std::string("grantpt/unlockpt: ") + std::strerror(errno)};
+    return Error{EmulatorError::kPty, std::string("grantpt/unlockpt: ") + std::strerror(errno)};
   }
   const char* name = ptsname(link.master_);
-  if (name == nullptr) return Error{1, std::string("ptsname: ") + std::strerror(errno)};
+  if (name == nullptr)
+    return Error{EmulatorError::kPty, std::string("ptsname: ") + std::strerror(errno)};
   link.slave_path_ = name;
   link.keeper_ = ::open(name, O_RDWR | O_NOCTTY);
   if (link.keeper_ < 0) {
-    return Error{1, "cannot open " + link.slave_path_ + ": " + std::strerror(errno)};
+    return Error{EmulatorError::kPty,
+                 "cannot open " + link.slave_path_ + ": " + std::strerror(errno)};
   }
   termios tio{};
   tcgetattr(link.keeper_, &tio);

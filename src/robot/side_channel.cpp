@@ -17,7 +17,8 @@ namespace scaratwin::robot {
 Result<SideChannel> SideChannel::listen(std::uint16_t port) {
   SideChannel sc;
   sc.listen_fd_ = ::socket(AF_INET, SOCK_STREAM | SOCK_NONBLOCK, 0);
-  if (sc.listen_fd_ < 0) return Error{1, std::string("socket: ") + std::strerror(errno)};
+  if (sc.listen_fd_ < 0)
+    return Error{EmulatorError::kSideChannel, std::string("socket: ") + std::strerror(errno)};
   int one = 1;
   setsockopt(sc.listen_fd_, SOL_SOCKET, SO_REUSEADDR, &one, sizeof one);
   sockaddr_in addr{};
@@ -25,8 +26,9 @@ Result<SideChannel> SideChannel::listen(std::uint16_t port) {
   addr.sin_port = htons(port);
   addr.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
   if (::bind(sc.listen_fd_, reinterpret_cast<sockaddr*>(&addr), sizeof addr) != 0) {
-    return Error{1, "cannot listen on 127.0.0.1:" + std::to_string(port) + ": " +
-                        std::strerror(errno) + " (use --side-port 0 for a free port)"};
+    return Error{EmulatorError::kSideChannel, "cannot listen on 127.0.0.1:" + std::to_string(port) +
+                                                  ": " + std::strerror(errno) +
+                                                  " (use --side-port 0 for a free port)"};
   }
   ::listen(sc.listen_fd_, 8);
   socklen_t len = sizeof addr;

@@ -37,7 +37,7 @@ constexpr std::array<const char*, kNumColors> kCubeRgba = {"0.85 0.08 0.08 1", "
 constexpr std::array<const char*, kNumColors> kTrayRgba = {"0.75 0.55 0.55 1", "0.55 0.72 0.55 1",
                                                            "0.55 0.6 0.78 1"};
 
-Error bad_option(std::string message) { return Error{1, std::move(message)}; }
+Error bad_option(std::string message) { return Error{SimError::kBadArgument, std::move(message)}; }
 
 // Roll, pitch, yaw (URDF convention R = Rz(yaw) Ry(pitch) Rx(roll)) of Rx(alpha) Rz(theta).
 Vec3 rpy_xz(double alpha, double theta) {

@@ -21,7 +21,7 @@ namespace {
 using namespace protocol;
 
 Error proto_error(std::int32_t code, std::string message) {
-  return Error{code, std::move(message)};
+  return Error{protocol_error_code(code), std::move(message)};
 }
 
 std::optional<std::uint16_t> seq_of(const TcpToSim& m) {

@@ -25,7 +25,7 @@ Error with_context(const char* statement, const Error& e) {
 
 template <class In>
 Error unexpected(const char* statement, const char* wanted) {
-  return Error{core::kErrInternal,
+  return Error{protocol_error_code(core::kErrInternal),
                std::string(statement) + ": reply was not the expected " + wanted};
 }
 
@@ -105,9 +105,9 @@ Result<std::vector<ObjectPose>> Twin::object_positions() {
   }
   const auto* ak = std::get_if<Ack>(&reply->last());
   if (ak && ak->value && *ak->value != static_cast<std::int32_t>(poses.size())) {
-    return Error{core::kErrInternal, std::string(kName) + ": simulator announced " +
-                                         std::to_string(*ak->value) + " objects, sent " +
-                                         std::to_string(poses.size())};
+    return Error{protocol_error_code(core::kErrInternal),
+                 std::string(kName) + ": simulator announced " + std::to_string(*ak->value) +
+                     " objects, sent " + std::to_string(poses.size())};
   }
   return poses;
 }
@@ -120,7 +120,7 @@ Result<ObjectPose> Twin::object_position(std::int32_t id) {
   for (const auto& m : reply->messages) {
     if (const auto* op = std::get_if<ObjectPose>(&m); op && op->id == id) return *op;
   }
-  return Error{core::kErrBadValue,
+  return Error{protocol_error_code(core::kErrBadValue),
                std::string(kName) + ": no object " + std::to_string(id) + " in the scene"};
 }
 
@@ -129,8 +129,9 @@ Result<TrajectoryLoad> Twin::load_trajectory(const JointTrajectory& trajectory) 
   if (!physical_) return no_robot(kName, "physical");
   const auto& samples = trajectory.samples;
   if (samples.empty() || samples.size() > 65535) {
-    return Error{core::kErrBadValue, std::string(kName) + ": " + std::to_string(samples.size()) +
-                                         " samples, need 1..65535"};
+    return Error{
+        protocol_error_code(core::kErrBadValue),
+        std::string(kName) + ": " + std::to_string(samples.size()) + " samples, need 1..65535"};
   }
   // the points, in wire units
   std::vector<TrajectoryPoint> points;
@@ -256,8 +257,9 @@ Result<TrajectoryLoad> Twin::load_trajectory(const JointTrajectory& trajectory) 
         deg_to_rad(close ? model_.motors.gripper_closed_deg : model_.motors.gripper_open_deg);
   }
   if (points.size() > 65535) {
-    return Error{core::kErrBadValue, std::string(kName) + ": " + std::to_string(points.size()) +
-                                         " points with the backlash take-ups, need at most 65535"};
+    return Error{protocol_error_code(core::kErrBadValue),
+                 std::string(kName) + ": " + std::to_string(points.size()) +
+                     " points with the backlash take-ups, need at most 65535"};
   }
   const MotionDirections dir = applied;
 
@@ -266,7 +268,8 @@ Result<TrajectoryLoad> Twin::load_trajectory(const JointTrajectory& trajectory) 
   if (!begin) return with_context(kName, begin.error());
   const auto* ak = std::get_if<Ack>(&begin->last());
   if (!ak || !ak->value || *ak->value < 1) {
-    return Error{core::kErrInternal, std::string(kName) + ": TB acknowledged without free slots"};
+    return Error{protocol_error_code(core::kErrInternal),
+                 std::string(kName) + ": TB acknowledged without free slots"};
   }
   {
     std::lock_guard lock(log_mutex_);  // the robot takes the points from here on
@@ -307,7 +310,8 @@ Result<TrajectoryLoad> Twin::load_trajectory(const JointTrajectory& trajectory) 
               flow->error = Error{r.error().code, "TP " + std::to_string(sent_before - 1) + ": " +
                                                       r.error().message};
             } else if (!a || !a->value) {
-              flow->error = Error{core::kErrInternal, "TP acknowledged without free slots"};
+              flow->error = Error{protocol_error_code(core::kErrInternal),
+                                  "TP acknowledged without free slots"};
             } else {
               flow->free = *a->value;
               flow->base = sent_before;
@@ -362,9 +366,10 @@ Result<TrajectoryLoad> Twin::load_trajectory(const JointTrajectory& trajectory) 
     });
     if (!progressed() && flow->acked == acked_before && flow->polling == was_polling &&
         std::chrono::steady_clock::now() >= now + options_.reply_timeout) {
-      return Error{core::kErrTimeout, std::string(kName) + ": no progress within " +
-                                          std::to_string(options_.reply_timeout.count()) +
-                                          " ms after point " + std::to_string(flow->acked)};
+      return Error{protocol_error_code(core::kErrTimeout),
+                   std::string(kName) + ": no progress within " +
+                       std::to_string(options_.reply_timeout.count()) + " ms after point " +
+                       std::to_string(flow->acked)};
     }
   }
   if (flow->error) return with_context(kName, *flow->error);
@@ -412,7 +417,8 @@ Result<std::vector<std::uint8_t>> Twin::take_picture(const std::filesystem::path
     f.write(reinterpret_cast<const char*>(png.data()), static_cast<std::streamsize>(png.size()));
     f.close();
     if (!f) {
-      return Error{core::kErrInternal, std::string(kName) + ": cannot write " + save_as.string()};
+      return Error{protocol_error_code(core::kErrInternal),
+                   std::string(kName) + ": cannot write " + save_as.string()};
     }
   }
   return png;

@@ -75,9 +75,10 @@ Result<PatternSheet> pattern_sheet(const PatternModel& p, int texels_per_cell) {
   const double texel = cell / std::max(texels_per_cell, 1);
   const long w = std::lround(sheet.width_m / texel), h = std::lround(sheet.height_m / texel);
   if (texels_per_cell < 1 || w > 4096 || h > 4096) {
-    return Error{73, fmt::format("pattern_sheet: {} texels per tag cell give a {}x{} picture: "
-                                 "use 1 or more, and at most 4096 pixels each way",
-                                 texels_per_cell, w, h)};
+    return Error{VisionError::kBadPattern,
+                 fmt::format("pattern_sheet: {} texels per tag cell give a {}x{} picture: "
+                             "use 1 or more, and at most 4096 pixels each way",
+                             texels_per_cell, w, h)};
   }
   Family fam;
   std::vector<image_u8_t*> bitmaps;

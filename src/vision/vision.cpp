@@ -42,7 +42,8 @@ Result<RgbImage> decode_png(std::span<const std::uint8_t> bytes) {
   std::memset(&img, 0, sizeof img);
   img.version = PNG_IMAGE_VERSION;
   if (!png_image_begin_read_from_memory(&img, bytes.data(), bytes.size())) {
-    return Error{60, fmt::format("not a PNG image ({} bytes): {}", bytes.size(), img.message)};
+    return Error{VisionError::kBadImage,
+                 fmt::format("not a PNG image ({} bytes): {}", bytes.size(), img.message)};
   }
   img.format = PNG_FORMAT_RGB;
   RgbImage out;
@@ -51,7 +52,7 @@ Result<RgbImage> decode_png(std::span<const std::uint8_t> bytes) {
   out.rgb.resize(PNG_IMAGE_SIZE(img));
   if (!png_image_finish_read(&img, nullptr, out.rgb.data(), 0, nullptr)) {
     png_image_free(&img);
-    return Error{60, fmt::format("cannot decode PNG: {}", img.message)};
+    return Error{VisionError::kBadImage, fmt::format("cannot decode PNG: {}", img.message)};
   }
   return out;
 }

@@ -265,7 +265,8 @@ Result<WebcamFit> calibrate_webcam(const WebcamModel& guess, const std::vector<T
                                    const WebcamFitOptions& o) {
   if (width_px < 16 || height_px < 16) {
     return Error{
-        70, fmt::format("calibrate_webcam: a {}x{} picture is too small", width_px, height_px)};
+        VisionError::kPictureTooSmall,
+        fmt::format("calibrate_webcam: a {}x{} picture is too small", width_px, height_px)};
   }
   std::map<int, const PatternTag*> by_id;
   const std::vector<PatternTag> pattern = pattern_corners(model);
@@ -280,10 +281,11 @@ Result<WebcamFit> calibrate_webcam(const WebcamModel& guess, const std::vector<T
   }
   const int n_tags = static_cast<int>(used.size());
   if (n_tags < std::max(o.min_tags, 2)) {
-    return Error{70, fmt::format("calibrate_webcam: {} of the pattern's {} tags seen ({} tags "
-                                 "detected in all), at least {} needed: is the pattern on the "
-                                 "table, in view and not hidden by the arm?",
-                                 n_tags, pattern.size(), tags.size(), std::max(o.min_tags, 2))};
+    return Error{VisionError::kTooFewTags,
+                 fmt::format("calibrate_webcam: {} of the pattern's {} tags seen ({} tags "
+                             "detected in all), at least {} needed: is the pattern on the "
+                             "table, in view and not hidden by the arm?",
+                             n_tags, pattern.size(), tags.size(), std::max(o.min_tags, 2))};
   }
   Residuals f{&guess, &matches, {0, 1, 2, 3, 4, 5, 7}, width_px, height_px};
   // first with the focal length held at the guess's
@@ -332,16 +334,18 @@ Result<WebcamFit> calibrate_webcam(const WebcamModel& guess, const std::vector<T
   fit.rms_px = std::sqrt(ss / static_cast<double>(m / 2));
   fit.max_px = worst;
   if (!std::isfinite(fit.rms_px) || worst >= 1e3) {
-    return Error{71, fmt::format("calibrate_webcam: the fit did not converge (status {}, rms "
-                                 "{:.3g} px): is the guess close to the camera's pose?",
-                                 best.status, fit.rms_px)};
+    return Error{VisionError::kNoConvergence,
+                 fmt::format("calibrate_webcam: the fit did not converge (status {}, rms "
+                             "{:.3g} px): is the guess close to the camera's pose?",
+                             best.status, fit.rms_px)};
   }
   if (fit.rms_px > o.max_rms_px) {
-    return Error{72, fmt::format("calibrate_webcam: residual {:.2f} px rms ({:.2f} px max) over "
-                                 "{} corners is above {:.2f} px: does the printed pattern match "
-                                 "the description (tag size, spacing), is it lying flat, is the "
-                                 "picture sharp?",
-                                 fit.rms_px, worst, fit.corners, o.max_rms_px)};
+    return Error{VisionError::kResidualTooLarge,
+                 fmt::format("calibrate_webcam: residual {:.2f} px rms ({:.2f} px max) over "
+                             "{} corners is above {:.2f} px: does the printed pattern match "
+                             "the description (tag size, spacing), is it lying flat, is the "
+                             "picture sharp?",
+                             fit.rms_px, worst, fit.corners, o.max_rms_px)};
   }
   // standard errors from the residual's variance and the normal matrix
   const auto p = static_cast<Eigen::Index>(used_f.free.size());

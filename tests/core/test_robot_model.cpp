@@ -154,7 +154,7 @@ TEST(Validate, EveryRuleIsNamedWithItsValue) {
     c.change(m);
     const Status s = validate(m);
     ASSERT_FALSE(s) << c.what << ": accepted";
-    EXPECT_EQ(s.error().code, 1) << c.what;
+    EXPECT_EQ(s.error().code, error_code(ConfigError::kInvalid)) << c.what;
     EXPECT_EQ(s.error().message, c.message) << c.what;
   }
 }
@@ -214,7 +214,7 @@ TEST(Color, NamesAndParsesTheThreeColours) {
   }
   auto bad = parse_color("Red");
   ASSERT_FALSE(bad);
-  EXPECT_EQ(bad.error().code, 1);
+  EXPECT_EQ(bad.error().code, error_code(ConfigError::kUnknownColour));
   EXPECT_EQ(bad.error().message, "unknown colour 'Red': expected red, green or blue");
   EXPECT_EQ(parse_color("").error().message, "unknown colour '': expected red, green or blue");
 }

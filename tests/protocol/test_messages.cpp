@@ -95,22 +95,22 @@ TEST(ProtocolEncode, WritesWireUnits) {
 TEST(ProtocolEncode, RefusesValuesTheWireCannotCarry) {
   const auto nan = encode(JointData{1, 2, {std::nan(""), 0, 0, 0}}, Framing::kTcp);
   ASSERT_FALSE(nan.ok());
-  EXPECT_EQ(nan.error().code, core::kErrBadValue);
+  EXPECT_EQ(nan.error().code, protocol_error_code(core::kErrBadValue));
   EXPECT_NE(nan.error().message.find("q[0]"), std::string::npos) << nan.error().message;
   const auto huge = encode(SpawnCube{CubeColor::kRed, 1e9, 0}, Framing::kTcp);
   ASSERT_FALSE(huge.ok());
   EXPECT_NE(huge.error().message.find("x_m"), std::string::npos) << huge.error().message;
   const auto text = encode(PeerHello{1, "bad name", "1"}, Framing::kTcp);
   ASSERT_FALSE(text.ok());
-  EXPECT_EQ(text.error().code, core::kErrBadValue);
+  EXPECT_EQ(text.error().code, protocol_error_code(core::kErrBadValue));
   const auto wrong_link = encode(JointData{}, Framing::kSerial);
   ASSERT_FALSE(wrong_link.ok());
-  EXPECT_EQ(wrong_link.error().code, core::kErrUnknownCode);
+  EXPECT_EQ(wrong_link.error().code, protocol_error_code(core::kErrUnknownCode));
   Image big;
   big.png.resize(core::kMaxImageBytes + 1);
   const auto image = encode(big, Framing::kTcp);
   ASSERT_FALSE(image.ok());
-  EXPECT_EQ(image.error().code, core::kErrPayloadTooLarge);
+  EXPECT_EQ(image.error().code, protocol_error_code(core::kErrPayloadTooLarge));
   std::string out = "AK,RS,\n";
   EXPECT_FALSE(append(out, TcpToSim(JointData{1, 2, {INFINITY, 0, 0, 0}})).ok());
   EXPECT_EQ(out, "AK,RS,\n");

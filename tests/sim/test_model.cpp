@@ -115,9 +115,9 @@ TEST(SimModel, MujocoErrorsBecomeErrorsNotExits) {
     mjData* d;
     void operator()() { mj_stackAlloc(d, 2'000'000'000); }
   } overflow{(*sim)->mutable_data()};
-  Status st = detail::mj_guarded(40, "test", overflow);
+  Status st = detail::mj_guarded(error_code(SimError::kMujoco), "test", overflow);
   ASSERT_FALSE(st.ok());
-  EXPECT_EQ(st.error().code, 40);
+  EXPECT_EQ(st.error().code, error_code(SimError::kMujoco));
   EXPECT_NE(st.error().message.find("Stack overflow"), std::string::npos) << st.error().message;
   // and the simulation still works afterwards
   (*sim)->mutable_data()->pstack = 0;

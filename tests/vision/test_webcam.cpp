@@ -204,7 +204,7 @@ TEST(WebcamFit, RefusesTooFewTagsAndAMovedPattern) {
   for (int id : {100, 101, 102}) few.push_back(TagCorners{id, tags[5].px});
   auto r = calibrate_webcam(guess, few, 1280, 960, m);
   ASSERT_FALSE(r.ok());
-  EXPECT_EQ(r.error().code, 70);
+  EXPECT_EQ(r.error().code, error_code(VisionError::kTooFewTags));
   EXPECT_NE(r.error().message.find("3 of the pattern's 20 tags seen (6 tags detected in all), "
                                    "at least 4 needed"),
             std::string::npos)
@@ -214,7 +214,7 @@ TEST(WebcamFit, RefusesTooFewTagsAndAMovedPattern) {
   printed.scene.pattern.spacing_m = 0.02;
   auto bad = calibrate_webcam(guess, synthetic(guess, printed, 0.1, 4), 1280, 960, m);
   ASSERT_FALSE(bad.ok());
-  EXPECT_EQ(bad.error().code, 72);
+  EXPECT_EQ(bad.error().code, error_code(VisionError::kResidualTooLarge));
   EXPECT_NE(bad.error().message.find("does the printed pattern match the description"),
             std::string::npos)
       << bad.error().message;

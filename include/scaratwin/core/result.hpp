@@ -7,14 +7,25 @@
 #include <cstdio>
 #include <cstdlib>
 #include <string>
+#include <type_traits>
 #include <utility>
 #include <variant>
 
+#include "scaratwin/core/error_codes.hpp"
+
 namespace scaratwin {
 
-// An error: a machine-readable code (module-defined enum, stored as int) and a message for
-// people that names the offending value and, where possible, what would be valid.
+// An error: a machine-readable code (a module's enum of scaratwin/core/error_codes.hpp, stored
+// as int; each module has its own range there) and a message for people that names the
+// offending value and, where possible, what would be valid.
 struct Error {
+  Error() = default;
+  Error(int code_value, std::string text) : code(code_value), message(std::move(text)) {}
+  // From a module's enum: Error{SimError::kOccupied, "..."}.
+  template <typename E>
+    requires std::is_enum_v<E>
+  Error(E code_value, std::string text) : Error(static_cast<int>(code_value), std::move(text)) {}
+
   int code = 0;
   std::string message;
 };

@@ -24,15 +24,7 @@ inline constexpr std::string_view kTopicPrefix = "scaratwin/v1";
 inline constexpr std::size_t kMaxCommandBytes = 4096;
 inline constexpr std::size_t kMaxRobotNameBytes = 64;
 
-enum FleetError : int {
-  kBadRobotName = 1401,
-  kBadUrl = 1402,
-  kOversized = 1403,
-  kMalformed = 1404,
-  kWrongRobot = 1405,
-  kBusy = 1406,
-  kNoCommands = 1407,
-};
+// Error codes of the fleet: FleetError (scaratwin/core/error_codes.hpp, 1400..1499).
 
 // The topics of one robot.
 struct RobotTopics {

@@ -23,16 +23,7 @@ struct ToolPose {
   double yaw_rad = 0.0;
 };
 
-// Error codes of inverse kinematics (Error::code). Each failure has its own code.
-enum class IkError : int {
-  kNotFinite = 1,       // a coordinate is NaN or infinite
-  kBeyondReach = 2,     // farther from the shoulder than both links stretched out
-  kInsideDeadZone = 3,  // closer to the shoulder than |a2 - a3|
-  kZOutOfTravel = 4,    // needs a d1 outside the Z travel
-  kJ2Limit = 5,         // the shoulder would leave its limits on every elbow solution
-  kJ3Limit = 6,         // the elbow would leave its limits on every elbow solution
-  kJ4Limit = 7,         // the wrist would leave its limits on every elbow solution
-};
+// Error codes of inverse kinematics: IkError (scaratwin/core/error_codes.hpp, 1..9).
 
 // 4x4 homogeneous transform X_BT of the tool in the base (the DH product).
 Eigen::Matrix4d forward_transform(const RobotModel& model, const JointVector& q);

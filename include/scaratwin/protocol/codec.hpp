@@ -37,9 +37,9 @@ using Decoded = std::variant<Direction, DecodeError>;
 // The framing of a link.
 enum class Framing { kSerial, kTcp };
 
-// One packet of `message` in the framing of its direction. Errors (Error::code is an
-// ErrorCode): kErrBadValue for a value the wire cannot carry (NaN, out of range, bad text),
-// kErrPayloadTooLarge for an image above 8 MiB, kErrLineTooLong.
+// One packet of `message` in the framing of its direction. Errors (Error::code is
+// protocol_error_code(ErrorCode)): kErrBadValue for a value the wire cannot carry (NaN, out of
+// range, bad text), kErrPayloadTooLarge for an image above 8 MiB, kErrLineTooLong.
 Result<std::string> encode(const SerialToDevice& message);
 Result<std::string> encode(const SerialFromDevice& message);
 Result<std::string> encode(const TcpToSim& message);
@@ -111,7 +111,7 @@ Result<std::string> encode(const Message& message, Framing framing) {
     if constexpr (tcp_to) return encode(TcpToSim(message));
     if constexpr (tcp_from) return encode(TcpFromSim(message));
   }
-  return Error{core::kErrUnknownCode,
+  return Error{protocol_error_code(core::kErrUnknownCode),
                "encode: this message has no code on the " +
                    std::string(framing == Framing::kSerial ? "serial" : "TCP") + " link"};
 }

@@ -37,16 +37,7 @@ struct mjData_;
 
 namespace scaratwin::sim {
 
-// Error codes of the simulator (Error::code).
-enum class SimError : int {
-  kMujoco = 40,         // MuJoCo reported an error (model compile, stack overflow, ...)
-  kBadArgument = 41,    // a value that is not finite or out of its valid range
-  kPoolExhausted = 42,  // every cube of that colour is already in the scene
-  kOccupied = 43,       // a spawn position overlaps a cube already there
-  kNoSuchCube = 44,     // an id that names no cube in the scene
-  kRender = 45,         // the camera could not render or encode
-  kWrongMode = 46,      // a mirror command in simulate mode or the reverse
-};
+// Error codes of the simulator: SimError (scaratwin/core/error_codes.hpp, 40..49).
 
 enum class Mode { kMirror, kSimulate };
 const char* mode_name(Mode mode);

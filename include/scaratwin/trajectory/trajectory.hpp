@@ -37,14 +37,7 @@ struct JointTrajectory {
   double duration_s() const { return samples.empty() ? 0.0 : samples.back().t_s; }
 };
 
-// Error codes of the planners (Error::code).
-enum class PlanError : int {
-  kBadArgument = 10,    // a sample count, duration or step that makes no sense
-  kJointLimit = 11,     // a start, goal or sample outside the joint limits
-  kMotorLimit = 12,     // a requested duration too short for a motor's speed or acceleration
-  kUnreachable = 13,    // a Cartesian sample has no IK solution (the message says which)
-  kDiscontinuous = 14,  // a Cartesian path would need a jump of the joints (elbow flip, wrap)
-};
+// Error codes of the planners: PlanError (scaratwin/core/error_codes.hpp, 10..19).
 
 // The paper's jtraj: fifth-order polynomial from q0 to q1 with zero velocity and acceleration
 // at both ends, `samples` samples evenly spaced over `duration_s`. No limit check.

@@ -13,8 +13,9 @@
 // up; when a reply matches a later request, timed-out ones before it are dropped (resync).
 // When the link drops, every pending request fails with kErrDisconnected.
 //
-// Errors of request()/post(): Error::code is a protocol ErrorCode (the peer's ER code 1..15,
-// 16 kErrTimeout, 17 kErrDisconnected) or a TransportError (100+) for a local failure.
+// Errors of request()/post(): Error::code is protocol_error_code(ErrorCode) (200 + the peer's
+// ER code 1..15, 200 + 16 kErrTimeout, 200 + 17 kErrDisconnected) or a TransportError (100..119)
+// for a local failure (scaratwin/core/error_codes.hpp).
 #pragma once
 
 #include <cstdint>

@@ -28,16 +28,8 @@ namespace scaratwin::transport {
 
 using Duration = std::chrono::milliseconds;
 
-// Error codes of the transport (Error::code). Disjoint from the protocol's wire error table.
-enum class TransportError : int {
-  kNotConnected = 100,     // send while the link has no peer / no open device
-  kTimeout = 101,          // nothing arrived (or no connection came up) within the timeout
-  kClosed = 102,           // the link was closed by its owner
-  kBufferFull = 103,       // the transmit queue holds more than max_tx_queue_bytes
-  kBadOption = 104,        // an option value that cannot work (names the value)
-  kOpenFailed = 105,       // a device or address that cannot be opened / bound
-  kPayloadTooLarge = 106,  // a binary payload above the link's max_payload_bytes
-};
+// Error codes of the transport: TransportError (scaratwin/core/error_codes.hpp, 100..119),
+// disjoint from the protocol's codes (200 + the wire code).
 
 std::int64_t steady_now_us();
 std::int64_t system_now_us();

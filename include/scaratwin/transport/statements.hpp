@@ -3,7 +3,8 @@
 // simulator over TCP) plus the robot description, and hides addressing, encoding, unit
 // conversion and waiting for replies. Every call returns a Result: the peer's refusal (its ER
 // code), kErrTimeout (16), kErrDisconnected (17), or a TransportError / kErrBadValue for a
-// local problem, each with a message naming the statement.
+// local problem, each with a message naming the statement. A protocol code N is the
+// Error::code protocol_error_code(N) = 200 + N (scaratwin/core/error_codes.hpp).
 //
 //   paper                 here
 //   OperationMonitoring2  read_physical_joints()   QS -> ST, steps -> joints, stored

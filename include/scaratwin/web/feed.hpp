@@ -32,12 +32,7 @@
 
 namespace scaratwin::web {
 
-// Error codes of the web module (Error::code).
-enum class WebError : int {
-  kBadCommand = 70,  // a page message that is not a valid command (names the field)
-  kBind = 71,        // the HTTP port could not be bound
-  kBadOption = 72,   // an option that cannot work (names the value)
-};
+// Error codes of the web module: WebError (scaratwin/core/error_codes.hpp, 70..79).
 
 // The "scene" message.
 // `fleet`: this server also serves the fleet page (/fleet.html, /api/fleet).
