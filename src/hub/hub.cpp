@@ -9,6 +9,7 @@
 #include <fmt/format.h>
 
 #include "hub_internal.hpp"
+#include "scaratwin/core/overloaded.hpp"
 #include "scaratwin/core/units.hpp"
 #include "scaratwin/hub/analysis.hpp"
 
@@ -452,28 +453,41 @@ void Hub::on_robot_packet(pr::SerialFromDevice&& msg, const tr::RxPacket& rx) {
       record_event("link", say);
     }
   }
-  if (const auto* st = std::get_if<pr::DeviceState>(&msg)) {
-    on_device_state(*st, rx);
-  } else if (const auto* ev = std::get_if<pr::DeviceEvent>(&msg)) {
-    std::lock_guard<std::mutex> lock(mu_);
-    events_.emplace_back(++event_count_, *ev);
-    if (events_.size() > 256) events_.pop_front();
-    if (db_ != nullptr && run_ != 0) {
-      (void)db_->add_event(
-          run_, static_cast<double>(rx.steady_us - run_start_us_) / 1e6, "robot",
-          fmt::format("EV {} {}", static_cast<int>(ev->event), ev->value.value_or(0)));
-    }
-    cv_.notify_all();
-  } else if (std::holds_alternative<pr::PeerHello>(msg)) {
-    {
-      std::lock_guard<std::mutex> lock(mu_);
-      robot_clock_known_ = false;  // its clock started again
-      stall_pending_ = false;
-      sample_clock_.reset();
-      robot_homed_ = false;  // it powered up anew
-    }
-    record_event("robot", "unsolicited hello: the robot reset");
-  }
+  // one handler per packet the robot may send unasked and no generic one: a new message type
+  // of the link does not compile here until the hub says what it does with it
+  std::visit(Overloaded{
+                 [&](const pr::DeviceState& st) { on_device_state(st, rx); },
+                 [&](const pr::DeviceEvent& ev) {
+                   std::lock_guard<std::mutex> lock(mu_);
+                   events_.emplace_back(++event_count_, ev);
+                   if (events_.size() > 256) events_.pop_front();
+                   if (db_ != nullptr && run_ != 0) {
+                     (void)db_->add_event(
+                         run_, static_cast<double>(rx.steady_us - run_start_us_) / 1e6, "robot",
+                         fmt::format("EV {} {}", static_cast<int>(ev.event), ev.value.value_or(0)));
+                   }
+                   cv_.notify_all();
+                 },
+                 [&](const pr::PeerHello&) {
+                   {
+                     std::lock_guard<std::mutex> lock(mu_);
+                     robot_clock_known_ = false;  // its clock started again
+                     stall_pending_ = false;
+                     sample_clock_.reset();
+                     robot_homed_ = false;  // it powered up anew
+                   }
+                   record_event("robot", "unsolicited hello: the robot reset");
+                 },
+                 // a reply with no request waiting for it (the channel matched every other one)
+                 [&](const pr::Ack& ak) { record_event("robot", "unsolicited AK " + ak.code); },
+                 [&](const pr::ErrorReply& er) {
+                   record_event(
+                       "robot",
+                       fmt::format("unsolicited ER {} ({})", er.code,
+                                   pr::core::error_name(static_cast<std::uint8_t>(er.code))));
+                 },
+             },
+             msg);
 }
 
 void Hub::on_device_state(const pr::DeviceState& st, const tr::RxPacket& rx) {
