@@ -228,18 +228,6 @@ Status validate(const RobotModel& m) {
   return Ok{};
 }
 
-const char* color_name(CubeColor c) {
-  switch (c) {
-    case CubeColor::kRed:
-      return "red";
-    case CubeColor::kGreen:
-      return "green";
-    case CubeColor::kBlue:
-      return "blue";
-  }
-  return "?";
-}
-
 Result<CubeColor> parse_color(std::string_view name) {
   if (name == "red") return CubeColor::kRed;
   if (name == "green") return CubeColor::kGreen;

@@ -10,14 +10,12 @@
 #include <vector>
 
 #include "scaratwin/core/result.hpp"
+#include "scaratwin/core/robot_types.hpp"
 #include "scaratwin/kinematics/physical.hpp"
 
 namespace scaratwin {
 
-inline constexpr int kNumJoints = 4;
-
-// Joint state of the SCARA in joint order: d1 (prismatic, m), q2, q3, q4 (revolute, rad).
-using JointVector = std::array<double, kNumJoints>;
+// kNumJoints, JointVector, CubeColor and color_name(): core/robot_types.hpp.
 
 enum class JointType { kPrismatic, kRevolute };
 
@@ -112,9 +110,6 @@ struct WebcamCalibration {
   int width_px = 640, height_px = 480;
 };
 
-enum class CubeColor { kRed = 0, kGreen = 1, kBlue = 2 };
-inline constexpr int kNumColors = 3;
-
 // A sorting tray: centre in the base frame and inner size.
 struct Tray {
   double x_m = 0.0;
@@ -181,7 +176,6 @@ RobotModel paper_robot();
 // positive conversions, home inside limits). The error message names the field and the value.
 Status validate(const RobotModel& model);
 
-const char* color_name(CubeColor c);
 Result<CubeColor> parse_color(std::string_view name);
 
 }  // namespace scaratwin

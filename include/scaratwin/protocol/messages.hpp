@@ -17,7 +17,7 @@
 #include <variant>
 #include <vector>
 
-#include "scaratwin/kinematics/robot_model.hpp"
+#include "scaratwin/core/robot_types.hpp"
 #include "scaratwin/protocol/codec_core.h"
 
 namespace scaratwin::protocol {
