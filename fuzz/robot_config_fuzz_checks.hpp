@@ -26,7 +26,7 @@ inline bool finite_pose(const ToolPose& p) {
 
 inline std::string check_robot_config(const std::uint8_t* data, std::size_t size) {
   const std::string_view text(reinterpret_cast<const char*>(data), size);
-  Result<RobotModel> loaded = Error{0, ""};
+  Result<RobotModel> loaded = Error{ConfigError::kInvalid, "not parsed"};
   try {
     loaded = parse_robot_config(text, "fuzz.toml");
   } catch (const std::exception& e) {

@@ -36,7 +36,7 @@ Result<Rig> start_rig(const RigOptions& o, const std::filesystem::path& log_dir)
   if (o.companion) {
     // the paper's MATLAB/Octave scripts (docs/protocol.md section 13.1); loopback only
     auto c = rig.sim->wait_for_line("companion dialect on ", 5s);
-    if (!c) return Error{1, "simulator: " + c.error().message};
+    if (!c) return Error{AppError::kRigStart, "simulator: " + c.error().message};
     rig.companion_port = static_cast<std::uint16_t>(std::stoi(c->substr(c->rfind(':') + 1)));
     fmt::print("companion dialect (the paper's scripts): 127.0.0.1:{}\n", rig.companion_port);
     std::fflush(stdout);

@@ -266,7 +266,7 @@ void sorts_and_records(bool calibrate, const char* robot_speed) {
   for (int k = 0; k < 3; ++k) {
     ToolPose target{targets[k][0], targets[k][1], model->scene.grasp_z_m + 0.005, 0.0};
     // the heading the hub takes: the first reachable of 0, +15, -15, +30, ... deg
-    Result<IkSolutions> all = Error{1, "unreachable"};
+    Result<IkSolutions> all = Error{IkError::kBeyondReach, "unreachable"};
     for (int h = 0; h < 24 && !all.ok(); ++h) {
       target.yaw_rad = wrap_angle((h % 2 ? -1 : 1) * ((h + 1) / 2) * deg_to_rad(15));
       all = inverse_all(*model, target, model->home);

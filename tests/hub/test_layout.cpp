@@ -92,7 +92,7 @@ TEST(RandomLayout, TooManyCubesForTheWorkspaceIsAClearError) {
   ASSERT_TRUE(model);
   auto r = random_layout(*model, 1, 3, model->home, 0.5);  // 0.5 m apart: only one fits
   ASSERT_FALSE(r);
-  EXPECT_EQ(r.error().code, 90);
+  EXPECT_EQ(r.error().code, error_code(HubError::kTask));
   EXPECT_NE(r.error().message.find("no free spot for cube 2 of 3"), std::string::npos)
       << r.error().message;
 }

@@ -269,7 +269,7 @@ TEST_F(CompanionServerTest, NewObjSpawnsAndModGrabCarriesTheCube) {
   pick.y_m = cs[0].pos_m[1];
   pick.z_m = model_.scene.grasp_z_m;
   // a cube looks the same every 90 deg: the first heading the wrist reaches
-  Result<JointVector> q = Error{0, "unreachable"};
+  Result<JointVector> q = Error{IkError::kBeyondReach, "unreachable"};
   for (double yaw : {0.0, 90.0, 180.0, -90.0}) {
     pick.yaw_rad = yaw * kDeg;
     q = inverse(model_, pick, model_.home);

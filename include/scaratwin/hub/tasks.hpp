@@ -57,7 +57,7 @@ Result<SortPlan> plan_sorting(const RobotModel& model, const JointVector& start,
 // kArmClearance_m in the table's plane from the arm standing at `arm` (where it is when the
 // cameras look: what it hides they cannot find), and more than `min_gap_m` from every other
 // cube, centre to centre (room for the gripper's fingers). The same seed and arm give the
-// same layout. An error (the tasks' code, 90) when 1000 draws find no spot for a cube.
+// same layout. An error (HubError::kTask) when 1000 draws find no spot for a cube.
 inline constexpr double kArmClearance_m = 0.05;
 Result<std::vector<SortItem>> random_layout(const RobotModel& model, std::uint64_t seed, int cubes,
                                             const JointVector& arm, double min_gap_m = 0.045);
