@@ -54,7 +54,8 @@ inline std::string check_robot_config(const std::uint8_t* data, std::size_t size
     for (int j = 0; j < kNumJoints; ++j) {
       q[j] = (corner >> j) & 1 ? r.limits[j].max : r.limits[j].min;
     }
-    if (!finite_pose(forward(r, q))) return "forward kinematics at a corner of the limits not finite";
+    if (!finite_pose(forward(r, q)))
+      return "forward kinematics at a corner of the limits not finite";
   }
   for (const StepperAxis* a : {&r.motors.z, &r.motors.j2, &r.motors.j3}) {
     if (!std::isfinite(a->steps_per_unit) || a->steps_per_unit == 0.0) {
@@ -63,8 +64,8 @@ inline std::string check_robot_config(const std::uint8_t* data, std::size_t size
   }
   const auto again = parse_robot_config(text, "fuzz.toml");
   if (!again) return "loads once, refused the second time: " + again.error().message;
-  if (again->name != r.name || again->home != r.home || again->motors.z.steps_per_unit !=
-      r.motors.z.steps_per_unit) {
+  if (again->name != r.name || again->home != r.home ||
+      again->motors.z.steps_per_unit != r.motors.z.steps_per_unit) {
     return "loading twice gives two robots";
   }
   return {};

@@ -201,8 +201,8 @@ Status validate(const RobotModel& m) {
     return invalid("scene.pattern: x_m and y_m must be finite, yaw_deg in [-360, 360]");
   }
   if (!(pt.tag_size_m >= 0.005 && pt.tag_size_m <= 0.5)) {
-    return invalid(fmt::format("scene.pattern.tag_size_m = {}: must be in [0.005, 0.5]",
-                               pt.tag_size_m));
+    return invalid(
+        fmt::format("scene.pattern.tag_size_m = {}: must be in [0.005, 0.5]", pt.tag_size_m));
   }
   if (!(pt.spacing_m >= pt.tag_size_m / 4 && pt.spacing_m <= 0.5)) {
     return invalid(fmt::format(

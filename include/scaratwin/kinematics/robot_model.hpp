@@ -135,14 +135,14 @@ struct CameraModel {
 // across, its white border one eighth of that. The operator puts it down to calibrate the camera
 // and takes it away after.
 struct PatternModel {
-  double x_m = 0.19;           // centre of the board in B
+  double x_m = 0.19;  // centre of the board in B
   double y_m = 0.11;
-  double yaw_rad = 0.0;        // the board's x axis from B's x axis, about z
-  double tag_size_m = 0.04;    // edge of each tag's black square
-  double spacing_m = 0.015;    // gap between neighbouring black squares
-  int columns = 5;             // tags along the board's x axis
-  int rows = 4;                // and along its y axis
-  double thickness_m = 0.0002; // the printed sheet: its surface is this far above the table
+  double yaw_rad = 0.0;         // the board's x axis from B's x axis, about z
+  double tag_size_m = 0.04;     // edge of each tag's black square
+  double spacing_m = 0.015;     // gap between neighbouring black squares
+  int columns = 5;              // tags along the board's x axis
+  int rows = 4;                 // and along its y axis
+  double thickness_m = 0.0002;  // the printed sheet: its surface is this far above the table
 };
 
 // The work scene, in the robot base frame (z = 0 at the base; the table top below it).
@@ -164,7 +164,7 @@ struct RobotModel {
   MotorModel motors;
   EndstopModel endstops;
   SceneModel scene;
-  PhysicalModel physical;  // the robot as built: only the emulated plant reads it
+  PhysicalModel physical;        // the robot as built: only the emulated plant reads it
   JointCalibration calibration;  // identity until `scaratwin calibrate` measured the robot
   WebcamCalibration webcam;      // the physical camera, once calibrated
 };
