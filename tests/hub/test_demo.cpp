@@ -341,6 +341,15 @@ TEST(Script, StopsAtTheFailingLineAndMovesNothingAfter) {
   EXPECT_NEAR(last[2], model.home[2], deg_to_rad(0.5));
 }
 
+// A hub on the rig's robot and simulator, the paper's robot description.
+Result<std::unique_ptr<Hub>> connect_hub(const Rig& rig) {
+  const RobotModel model = *load_robot_config(SCARATWIN_CONFIG_FILE);
+  HubOptions opt;
+  opt.serial_device = rig.pty.string();
+  opt.sim_port = static_cast<std::uint16_t>(std::stoi(rig.sim_port));
+  return Hub::connect(model, opt, nullptr);
+}
+
 // The simulator's newest status line, after the next few.
 std::string sim_status(ChildProcess& sim) {
   std::this_thread::sleep_for(300ms);  // three status lines at 0.1 s
@@ -367,11 +376,7 @@ TEST(Hub, APhaseSetBeforeHomingTakesNoUnhomedJointForALimitWarning) {
   const fs::path dir = fresh_dir("phase");
   Rig rig;
   ASSERT_NO_FATAL_FAILURE(start_rig(dir, false, &rig, true, {"--status", "0.1"}));
-  const RobotModel model = *load_robot_config(SCARATWIN_CONFIG_FILE);
-  HubOptions opt;
-  opt.serial_device = rig.pty.string();
-  opt.sim_port = static_cast<std::uint16_t>(std::stoi(rig.sim_port));
-  auto hub = Hub::connect(model, opt, nullptr);
+  auto hub = connect_hub(rig);
   ASSERT_TRUE(hub) << hub.error().message;
   ASSERT_TRUE((*hub)->set_twin_phase(protocol::TwinPhase::kMirror));
   (*hub)->set_mirror(true);
@@ -396,11 +401,7 @@ TEST(Hub, HomingAgainFindsLostStepsAndRaisesADesyncAlarm) {
   // the exact robot: the homing check's counts are compared step for step with a belt fault
   // that swallows exactly 100 pulses (the robot as built would add its switches' +-1 step)
   ASSERT_NO_FATAL_FAILURE(start_rig(dir, false, &rig, true));
-  const RobotModel model = *load_robot_config(SCARATWIN_CONFIG_FILE);
-  HubOptions opt;
-  opt.serial_device = rig.pty.string();
-  opt.sim_port = static_cast<std::uint16_t>(std::stoi(rig.sim_port));
-  auto hub = Hub::connect(model, opt, nullptr);
+  auto hub = connect_hub(rig);
   ASSERT_TRUE(hub) << hub.error().message;
   ASSERT_TRUE((*hub)->home());
   EXPECT_FALSE((*hub)->last_homing().measured) << "nothing to compare with at the first homing";
