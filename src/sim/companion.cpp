@@ -246,7 +246,12 @@ struct CompanionServer::Impl {
 
   // Carries out one frame; appends any reply bytes (a Camera's PNG) to `out`.
   void handle(const std::string& who, std::string_view payload, std::string& out) {
-    ++frames;
+    // counted once the frame has been carried out (or refused), so that a reader of the
+    // counter sees its effect
+    struct CountOnExit {
+      std::atomic<std::uint64_t>& n;
+      ~CountOnExit() { ++n; }
+    } count{frames};
     auto cmd = parse_companion(payload, world->robot());
     if (!cmd) {
       ++refused;

@@ -285,20 +285,28 @@ TEST_F(CompanionServerTest, NewObjSpawnsAndModGrabCarriesTheCube) {
   c.send(mod(*q) + frame("ModGrab:1"));
   ASSERT_TRUE(handled(3));
   EXPECT_EQ(world_->with_simulation([](Simulation& s) { return s.held_cube(); }), cs[0].id);
+  // where the cube was grasped (it may have settled on the table since it was spawned)
+  const auto grasped = cubes();
+  ASSERT_EQ(grasped.size(), 1u);
   // lift by 3 cm: the cube goes with the tool
   JointVector up = *q;
   up[0] += 0.03;
   c.send(mod(up));
   ASSERT_TRUE(handled(4));
-  // the held cube follows at the world's next steps (an event, not a time: wait for it)
+  // the held cube follows over the world's next steps (an event, not a time: wait until it has
+  // risen and then rests, 0.01 mm or less between two looks 20 ms apart)
   std::vector<CubeState> lifted;
-  for (int i = 0; i < 1000; ++i) {
+  double last_z = -1.0;
+  for (int i = 0; i < 500; ++i) {
     lifted = cubes();
-    if (lifted.size() == 1 && lifted[0].pos_m[2] - cs[0].pos_m[2] > 0.02) break;
-    std::this_thread::sleep_for(std::chrono::milliseconds(5));
+    if (lifted.size() != 1) break;
+    const double z = lifted[0].pos_m[2];
+    if (z - grasped[0].pos_m[2] > 0.02 && std::abs(z - last_z) < 1e-5) break;
+    last_z = z;
+    std::this_thread::sleep_for(std::chrono::milliseconds(20));
   }
   ASSERT_EQ(lifted.size(), 1u);
-  EXPECT_NEAR(lifted[0].pos_m[2] - cs[0].pos_m[2], 0.03, 0.003);
+  EXPECT_NEAR(lifted[0].pos_m[2] - grasped[0].pos_m[2], 0.03, 0.003);
   c.send(frame("ModGrab:0"));
   ASSERT_TRUE(handled(5));
   EXPECT_EQ(world_->with_simulation([](Simulation& s) { return s.held_cube(); }), -1);

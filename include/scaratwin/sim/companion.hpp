@@ -67,7 +67,7 @@ struct CompanionOptions {
 };
 
 struct CompanionCounters {
-  std::uint64_t frames = 0;   // frames received (good and bad) and zero length bytes
+  std::uint64_t frames = 0;   // frames carried out or refused (good and bad), zero length bytes too
   std::uint64_t refused = 0;  // logged as bad, nothing changed
   std::uint64_t applied = 0;  // commands carried out
   std::uint64_t images_sent = 0;
