@@ -65,11 +65,13 @@ enum class PlanError : int {
   kDiscontinuous = 14,  // a Cartesian path would need a jump of the joints (elbow flip, wrap)
 };
 
-// The robot description (kinematics/robot_model.hpp, config/robot_config.hpp).
+// The robot description (kinematics/robot_model.hpp, config/robot_config.hpp) and the workcell
+// (kinematics/workcell.hpp, config/workcell_config.hpp).
 enum class ConfigError : int {
   kInvalid = 20,        // a description that does not parse or fails validation (names the key)
   kNotFound = 21,       // no such description file, or it cannot be read
   kUnknownColour = 22,  // a cube colour name other than red, green or blue
+  kUnknownRobot = 23,   // a robot name the workcell does not have (the message lists them)
 };
 
 // Calibration: the fit (calibration/calibration.hpp) and its routine (hub/calibrate.hpp, the
@@ -246,7 +248,7 @@ constexpr bool ranges_disjoint() {
 static_assert(detail::ranges_disjoint(), "error ranges must be sorted and disjoint");
 static_assert(detail::fits("IkError", IkError::kNotFinite, IkError::kJ4Limit));
 static_assert(detail::fits("PlanError", PlanError::kBadArgument, PlanError::kDiscontinuous));
-static_assert(detail::fits("ConfigError", ConfigError::kInvalid, ConfigError::kUnknownColour));
+static_assert(detail::fits("ConfigError", ConfigError::kInvalid, ConfigError::kUnknownRobot));
 static_assert(detail::fits("CalibrationError", CalibrationError::kNotEnoughData,
                            CalibrationError::kWriteFailed));
 static_assert(detail::fits("sim::SimError", sim::SimError::kMujoco, sim::SimError::kWrongMode));
