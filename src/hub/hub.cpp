@@ -273,7 +273,7 @@ void Hub::on_sim_link(tr::LinkState state) {
           "{} (the virtual robot no longer follows)",
           dropped.empty() ? "the simulator link was lost" : "the simulator stopped answering");
       abort_mark_ = event_count_;  // the stop's confirmation (EV 6) comes after this
-      abort_stop_wait_s_ = 0.0;  // the reply timeout
+      abort_stop_wait_s_ = 0.0;    // the reply timeout
       stop_robot = true;
     }
     cv_.notify_all();
@@ -407,11 +407,11 @@ void Hub::on_robot_packet(pr::SerialFromDevice&& msg, const tr::RxPacket& rx) {
           }
           stop_robot = stop_owed_;
           stop_owed_ = false;
-          say = fmt::format("{}: {}{}",
-                            after_silence
-                                ? fmt::format("the robot link is back after {} ms", wall_ms)
-                                : std::string("the robot's state reports skipped ahead"),
-                            cut, stop_robot ? ": stopping the robot" : "");
+          say =
+              fmt::format("{}: {}{}",
+                          after_silence ? fmt::format("the robot link is back after {} ms", wall_ms)
+                                        : std::string("the robot's state reports skipped ahead"),
+                          cut, stop_robot ? ": stopping the robot" : "");
           print = true;
           cv_.notify_all();
         } else if (jumped) {
@@ -765,7 +765,7 @@ Status Hub::home(double timeout_s) {
   // homing leaves each joint moving away from its switch
   statements_->set_directions(homed_directions(model_));
   // the offsets come just before EV 1 when the robot was homed before
-  std::lock_guard<std::mutex> lock(mu_);
+  std::unique_lock<std::mutex> lock(mu_);
   report_dir_ = homed_directions(model_);
   play_reset_ = true;
   HomingCheck c;
@@ -797,6 +797,44 @@ Status Hub::home(double timeout_s) {
     }
   }
   last_homing_ = c;
+  lock.unlock();
+  // still in the homing phase (the simulator notes no limit warning for where homing ended)
+  return settle_at_home();
+}
+
+// Homing ends where the firmware's counts put the description's home pose. Through a
+// calibrated joint map that is a little elsewhere, even beyond a soft limit (home lies on the
+// limits of d1 and q4): a calibrated switch 1 mm low reads d1 121 mm for a 120 mm limit, and
+// every plan from there would be refused. A short move brings the robot to home, kept one motor
+// quantum inside each limit. An uncalibrated robot is at home already and does not move.
+Status Hub::settle_at_home() {
+  auto now = fresh_physical(2.0);
+  if (!now) return now.error();
+  const MotorModel& m = model_.motors;
+  const double wrist_us = m.wrist.pulse_max_us - m.wrist.pulse_min_us;
+  // the smallest step each joint's motor makes: one step, or one microsecond of servo pulse
+  const JointVector quantum{
+      1.0 / m.z.steps_per_unit, 1.0 / m.j2.steps_per_unit, 1.0 / m.j3.steps_per_unit,
+      deg_to_rad((m.wrist.max_deg - m.wrist.min_deg) / (wrist_us > 0.0 ? wrist_us : 1.0))};
+  JointVector target = model_.home;
+  bool away = false;
+  for (int j = 0; j < kNumJoints; ++j) {
+    const JointLimit& l = model_.limits[j];
+    target[j] = std::clamp(target[j], l.min + quantum[j], l.max - quantum[j]);
+    const double q = now->q[j];
+    if (std::abs(q - model_.home[j]) > quantum[j] || q < l.min || q > l.max) away = true;
+  }
+  if (!away) return Ok{};
+  const double duration_s = std::max(0.3, 1.2 * quintic_min_duration(model_, now->q, target));
+  const JointTrajectory move = quintic(now->q, target, duration_s, 30);
+  auto run = run_trajectory(move);
+  if (!run) {
+    return hub_error(
+        fmt::format("homed, but the move to the home pose failed: {}", run.error().message));
+  }
+  record_event("homing", fmt::format("moved {:.2f} mm, {:.2f} deg to the home pose",
+                                     m_to_mm(std::abs(target[0] - now->q[0])),
+                                     rad_to_deg(std::abs(target[3] - now->q[3]))));
   return Ok{};
 }
 
@@ -878,7 +916,15 @@ double Hub::off_plan_worst_m() const {
 
 Result<int> Hub::run_trajectory(const JointTrajectory& traj, double timeout_s) {
   if (traj.samples.size() < 2) return 0;
-  if (Status s = check_limits(model_, traj); !s) {
+  // a trajectory may start beyond a limit (a calibrated robot homed just outside one) as long
+  // as it comes back: the limits are widened to its first sample, no further
+  RobotModel bounds = model_;
+  for (int j = 0; j < kNumJoints; ++j) {
+    JointLimit& l = bounds.limits[j];
+    l.min = std::min(l.min, traj.samples.front().q[j]);
+    l.max = std::max(l.max, traj.samples.front().q[j]);
+  }
+  if (Status s = check_limits(bounds, traj); !s) {
     return hub_error(
         fmt::format("trajectory refused before anything moved: {}", s.error().message));
   }
@@ -927,7 +973,7 @@ Result<int> Hub::run_trajectory(const JointTrajectory& traj, double timeout_s) {
   const auto give_up = [&](const std::string& what) -> Error {
     clear_tracker();
     std::optional<std::uint64_t> sent_at;  // a stop the link watcher already sent
-    double stop_wait_s = 0.0;  // the reply timeout
+    double stop_wait_s = 0.0;              // the reply timeout
     {
       std::lock_guard<std::mutex> lock(mu_);
       if (!motion_abort_.empty()) {

@@ -29,6 +29,7 @@
 #include "scaratwin/hub/twin_db.hpp"
 #include "scaratwin/kinematics/kinematics.hpp"
 #include "scaratwin/plant/plant.hpp"
+#include "scaratwin/trajectory/trajectory.hpp"
 
 namespace scaratwin {
 namespace {
@@ -390,6 +391,52 @@ TEST(Hub, APhaseSetBeforeHomingTakesNoUnhomedJointForALimitWarning) {
   const std::string homed = sim_status(*rig.sim);
   EXPECT_NE(homed.find(" d1 120.0 mm "), std::string::npos) << homed;
   EXPECT_NE(homed.find("limit warnings 0  phase mirror"), std::string::npos) << homed;
+}
+
+// A calibrated robot reads its switches through the joint map: with the Z switch found 1 mm
+// low, the firmware's home count (Z 24,667 steps, d1 120 mm as the description has it) reads
+// d1 121 mm, beyond the 120 mm soft limit, and every plan from there would be refused. Homing
+// ends with a move to the home pose, one motor quantum inside the limits it lies on (d1 120 mm,
+// q4 0 deg). Worked out by hand: d1_fw = 120 mm - 1 step - 1 mm = 119 mm - 1 step at 205.56
+// steps/mm: 24,461.64 - 1 -> 24,461 steps; q4_fw = 180/1856 deg + 0.8 deg = 0.897 deg (the servo's
+// output below). (Without that move: d1 121.0 mm, limit warnings, and the plan refused with "start
+// j1 = 0.121 is outside its limits".)
+TEST(Hub, ACalibratedHomingEndsAtTheHomePoseWithinTheLimits) {
+  const fs::path dir = fresh_dir("calhome");
+  Rig rig;
+  ASSERT_NO_FATAL_FAILURE(start_rig(dir, false, &rig, true, {"--status", "0.1"}));
+  RobotModel model = *load_robot_config(SCARATWIN_CONFIG_FILE);
+  model.calibration.z_offset_m = 0.001;
+  model.calibration.wrist_offset_rad = deg_to_rad(-0.8);
+  HubOptions opt;
+  opt.serial_device = rig.pty.string();
+  opt.sim_port = static_cast<std::uint16_t>(std::stoi(rig.sim_port));
+  auto hub = Hub::connect(model, opt, nullptr);
+  ASSERT_TRUE(hub) << hub.error().message;
+  ASSERT_TRUE((*hub)->set_twin_phase(protocol::TwinPhase::kMirror));
+  (*hub)->set_mirror(true);
+  const Status homed = (*hub)->home();
+  ASSERT_TRUE(homed) << homed.error().message;
+  auto at = (*hub)->fresh_physical(2.0);
+  ASSERT_TRUE(at) << at.error().message;
+  EXPECT_EQ(at->raw.steps[0], 24461);
+  // sent as 90 cdeg; the servo's output is whole half-microsecond ticks of its pulse: 0.90 deg
+  // is 18.56 ticks above its 544 us end, so 19 ticks, 9.5 us of 1856 us for 180 deg: 0.92 deg
+  EXPECT_NEAR(rad_to_deg(at->raw.wrist_rad), 0.92, 1e-6);
+  EXPECT_GE(at->q[3], model.limits[3].min);
+  ASSERT_TRUE(more_frames_applied(**hub, 20));
+  const std::string status = sim_status(*rig.sim);
+  EXPECT_NE(status.find(" d1 120.0 mm "), std::string::npos) << status;
+  EXPECT_NE(status.find("limit warnings 0  phase mirror"), std::string::npos) << status;
+  // a plan from the homed pose is accepted and runs
+  JointVector to = at->q;
+  to[0] -= 0.01;
+  to[1] += 0.2;
+  to[3] += 0.2;
+  auto plan = plan_quintic(model, at->q, to);
+  ASSERT_TRUE(plan) << plan.error().message;
+  auto ran = (*hub)->run_trajectory(*plan);
+  EXPECT_TRUE(ran) << ran.error().message;
 }
 
 // Steps lost by a motor do not show in the robot's counts (it has no encoders); homing again

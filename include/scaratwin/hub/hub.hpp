@@ -203,6 +203,8 @@ class Hub {
   transport::LinkCounters sim_counters() const;
 
  private:
+  // The end of home(): a calibrated robot homed off its home pose moves there (hub.cpp).
+  Status settle_at_home();
   Hub(const RobotModel& model, const HubOptions& options, TwinDb* db);
   void on_robot_packet(protocol::SerialFromDevice&& msg, const transport::RxPacket& rx);
   void on_device_state(const protocol::DeviceState& st, const transport::RxPacket& rx);
@@ -280,7 +282,7 @@ class Hub {
   // the robot's clock aligned to the hub's, for the sample time of each mirrored frame (mu_)
   SampleClock sample_clock_;
   // the robot link's watchdog (a cut is silence: the firmware reports periodically)
-  double silence_limit_s_ = 0.0;       // 0 until the reports are on
+  double silence_limit_s_ = 0.0;  // 0 until the reports are on
   // how long a statement waits for the watcher's stop (0: the reply timeout; mu_)
   double abort_stop_wait_s_ = 0.0;
   std::int64_t last_robot_rx_us_ = 0;  // (mu_)
@@ -294,8 +296,8 @@ class Hub {
   std::uint32_t anchor_t_us_ = 0;       // the last report before that silence: its clock
   std::int64_t anchor_rx_us_ = 0;       // and when it was received (mu_)
   std::int64_t last_report_rx_us_ = 0;  // when the last report was received (mu_)
-  bool robot_silent_ = false;          // (mu_)
-  bool silence_said_ = false;          // the silence was said on stderr (mu_)
+  bool robot_silent_ = false;           // (mu_)
+  bool silence_said_ = false;           // the silence was said on stderr (mu_)
   bool stop_owed_ = false;      // a stop sent into the silence, sent again when it ends (mu_)
   bool watchdog_quit_ = false;  // (mu_)
   std::thread watchdog_;
