@@ -15,6 +15,7 @@
 #include <map>
 #include <sstream>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include <fmt/format.h>
@@ -159,6 +160,66 @@ TEST(Cli, TheRobotDescriptionComesFromConfigOrTheEnvironment) {
   typo.insert(typo.end(), {"--config", (dir / "typo.toml").string()});
   o = run_cli(typo);
   EXPECT_EQ(o.status, 2) << o.output;
+  fs::remove_all(dir);
+}
+
+// `scaratwin model --workcell FILE` writes the whole workcell, each robot's names prefixed;
+// a workcell it cannot keep apart exits 2 naming the file and the robots; without the flag the
+// model is the robot's alone.
+TEST(Cli, ModelWritesAWorkcell) {
+  const fs::path dir = fresh_dir("workcell");
+  const fs::path config = fs::path(SCARATWIN_CONFIG_FILE).parent_path();
+  const auto read = [](const fs::path& p) {
+    std::ifstream in(p);
+    std::stringstream ss;
+    ss << in.rdbuf();
+    return ss.str();
+  };
+  Outcome o = run_cli({"model", "--workcell", (config / "two_arms.toml").string(), "--mjcf",
+                       (dir / "cell.xml").string(), "--urdf", (dir / "cell.urdf").string()});
+  ASSERT_EQ(o.status, 0) << o.output;
+  const std::string mjcf = read(dir / "cell.xml");
+  for (const char* want : {"<mujoco model=\"workcell\">", "<body name=\"left/base_frame\"",
+                           "<body name=\"right/base_frame\"", "<joint name=\"right/j1\"",
+                           "<site name=\"left/tool\"", "<camera name=\"overhead\""}) {
+    EXPECT_NE(mjcf.find(want), std::string::npos) << want;
+  }
+  EXPECT_NE(read(dir / "cell.urdf").find("<joint name=\"right/base_fixed\" type=\"fixed\">"),
+            std::string::npos);
+
+  // two bases 111.8 mm apart
+  std::string text = read(config / "two_arms.toml");
+  for (const auto& [from, to] :
+       {std::pair<std::string, std::string>{"x_mm = 400.0", "x_mm = 100.0"},
+        {"y_mm = 200.0", "y_mm = 50.0"}}) {
+    ASSERT_NE(text.find(from), std::string::npos) << from;
+    text.replace(text.find(from), from.size(), to);
+  }
+  const std::string scara = "description = \"scara.toml\"";
+  for (auto at = text.find(scara); at != std::string::npos; at = text.find(scara)) {
+    text.replace(at, scara.size(), "description = \"" + (config / "scara.toml").string() + "\"");
+  }
+  std::ofstream(dir / "close.toml") << text;
+  o = run_cli({"model", "--workcell", (dir / "close.toml").string(), "--mjcf",
+               (dir / "close.xml").string()});
+  EXPECT_EQ(o.status, 2) << o.output;
+  EXPECT_NE(o.output.find((dir / "close.toml").string()), std::string::npos) << o.output;
+  EXPECT_NE(o.output.find("robots 'left' and 'right'"), std::string::npos) << o.output;
+  EXPECT_NE(o.output.find("111.8 mm apart"), std::string::npos) << o.output;
+  EXPECT_FALSE(fs::exists(dir / "close.xml"));
+
+  // --config and --workcell together
+  o = run_cli({"model", "--workcell", (config / "two_arms.toml").string(), "--config",
+               SCARATWIN_CONFIG_FILE, "--mjcf", (dir / "both.xml").string()});
+  EXPECT_EQ(o.status, 2) << o.output;
+  EXPECT_NE(o.output.find("--config and --workcell"), std::string::npos) << o.output;
+
+  // without the flag: the robot alone, unprefixed
+  o = run_cli({"model", "--config", SCARATWIN_CONFIG_FILE, "--mjcf", (dir / "one.xml").string()});
+  ASSERT_EQ(o.status, 0) << o.output;
+  const std::string one = read(dir / "one.xml");
+  EXPECT_NE(one.find("<joint name=\"j1\""), std::string::npos);
+  EXPECT_EQ(one.find("/j1"), std::string::npos);
   fs::remove_all(dir);
 }
 

@@ -2,7 +2,8 @@
 // simulator can never disagree with the kinematics: column, Z carriage, two arm links, wrist, a
 // two-finger gripper, the table, one sorting tray per colour, the fixed overhead camera and a
 // pool of cubes per colour (MuJoCo 2.2 cannot add bodies at run time, so unused cubes are
-// parked far away). Also a URDF of the arm for other tools. Pure: returns text, no I/O.
+// parked far away). Also a URDF of the arm for other tools, and both for a workcell of several
+// robots (kinematics/workcell.hpp). Pure: returns text, no I/O.
 //
 // Frames: the MJCF world frame is the robot base B of kinematics.hpp (z up, x forward). The
 // body chain follows the standard DH table row by row, so the site `tool` is exactly the DH
@@ -14,6 +15,7 @@
 
 #include "scaratwin/core/result.hpp"
 #include "scaratwin/kinematics/robot_model.hpp"
+#include "scaratwin/kinematics/workcell.hpp"
 
 namespace scaratwin::sim {
 
@@ -70,6 +72,20 @@ Result<std::string> make_mjcf(const RobotModel& model, const MjcfOptions& option
 
 // A URDF of the arm (base, carriage, two links, wrist, tool frame) with the joint limits.
 Result<std::string> make_urdf(const RobotModel& model);
+
+// The MJCF of a whole workcell (docs/workcell.md). A workcell of one robot is exactly
+// make_mjcf() of that robot with the workcell's scene (byte for byte: the simulator's model).
+// With more robots: the table (covering every robot's), trays, pattern, camera and cube pool
+// once, unprefixed, in the world frame; each robot inside a body "<name>/base_frame" at its base
+// pose, every name of the robot prefixed "<name>/" ("left/j1", "right/tool", "left/wrist"), its
+// welds "<name>/hold_cube_red_0" and its actuators "<name>/j1". Errors: validate(Workcell)'s,
+// and the options' as make_mjcf().
+Result<std::string> make_mjcf(const Workcell& workcell, const MjcfOptions& options = {});
+
+// A URDF of the workcell: for one robot, make_urdf() of its model; for more, a link "world"
+// with each arm's "<name>/base_link" fixed to it at the base pose (joint "<name>/base_fixed"),
+// every link and joint name prefixed "<name>/".
+Result<std::string> make_urdf(const Workcell& workcell);
 
 // Body name of a pool cube: "cube_<colour>_<index>".
 std::string cube_body_name(CubeColor color, int index);
