@@ -14,7 +14,9 @@ import numpy as np
 
 import scaratwin as st
 
-CUBES = [("red", 0.20, 0.06), ("green", 0.16, -0.02), ("blue", 0.19, -0.08)]
+# on the free side of the table, 45 mm or more apart, none in a tray (a cube spawned inside
+# another colour's tray is in the way of the cube placed there)
+CUBES = [("red", 0.20, 0.06), ("green", 0.16, -0.02), ("blue", 0.15, 0.10)]
 
 
 def numpy_mask(picture, color):

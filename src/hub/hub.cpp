@@ -816,13 +816,24 @@ Status Hub::settle_at_home() {
   const JointVector quantum{
       1.0 / m.z.steps_per_unit, 1.0 / m.j2.steps_per_unit, 1.0 / m.j3.steps_per_unit,
       deg_to_rad((m.wrist.max_deg - m.wrist.min_deg) / (wrist_us > 0.0 ? wrist_us : 1.0))};
+  // the wrist servo's range as the calibrated joint map reads it: a horn found 2.4 deg off
+  // makes q4 0 unreachable (the servo stops at its end), so the move ends where it can
+  const double wrist_lo =
+      firmware_to_joints(model_, {0.0, 0.0, 0.0, deg_to_rad(m.wrist.min_deg)})[3];
+  const double wrist_hi =
+      firmware_to_joints(model_, {0.0, 0.0, 0.0, deg_to_rad(m.wrist.max_deg)})[3];
   JointVector target = model_.home;
   bool away = false;
   for (int j = 0; j < kNumJoints; ++j) {
     const JointLimit& l = model_.limits[j];
-    target[j] = std::clamp(target[j], l.min + quantum[j], l.max - quantum[j]);
+    double lo = l.min + quantum[j], hi = l.max - quantum[j];
+    if (j == 3) {
+      lo = std::max(lo, std::min(wrist_lo, wrist_hi) + quantum[j]);
+      hi = std::min(hi, std::max(wrist_lo, wrist_hi) - quantum[j]);
+    }
+    target[j] = std::clamp(target[j], lo, hi);
     const double q = now->q[j];
-    if (std::abs(q - model_.home[j]) > quantum[j] || q < l.min || q > l.max) away = true;
+    if (std::abs(q - target[j]) > quantum[j] || q < l.min || q > l.max) away = true;
   }
   if (!away) return Ok{};
   const double duration_s = std::max(0.3, 1.2 * quintic_min_duration(model_, now->q, target));
