@@ -17,6 +17,7 @@
 
 #include "commands.hpp"
 #include "hub_session.hpp"
+#include "scaratwin/config/robot_config.hpp"
 #include "scaratwin/hub/hub.hpp"
 #include "scaratwin/hub/process.hpp"
 #include "scaratwin/hub/runner.hpp"
@@ -125,6 +126,8 @@ int with_hub(const CommonOptions& common, const LinkArgs& l, const std::string& 
   o.sim_host = l.sim.substr(0, colon);
   o.sim_port = static_cast<std::uint16_t>(port);
   o.sim_token = l.sim_token;
+  o.description_source =
+      common.config_path.empty() ? default_robot_config_path().string() : common.config_path;
   // stop acts on the robot alone, so it may run while another hub controls the simulator
   if (kind == "stop") o.sim_role = "observe";
   if (o.sim_token.empty()) {

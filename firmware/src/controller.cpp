@@ -120,13 +120,16 @@ void send_ev(uint8_t event, bool with_value, int32_t value) {
   send(enc);
 }
 
-void send_hello() {
-  char buf[40];
+// The hello; `described`: answering a hello that carried the host's description hash, so the
+// host reads this one's (docs/protocol.md section 11). The hello after reset has none.
+void send_hello(bool described) {
+  char buf[48];
   core::Encoder enc(core::kSerialDeviceToHost, buf, sizeof buf);
   enc.begin(code_id('H', 'I'));
   enc.add_i32(FW_PROTO_VERSION);
   enc.add_text(FW_BOARD_NAME);
   enc.add_text(FW_VERSION);
+  if (described) enc.add_text(desc::kDescriptionHash);
   send(enc);
 }
 
@@ -402,7 +405,7 @@ void handle_packet(const core::Packet& p) {
   switch (p.code) {
     case code_id('H', 'I'):
       if (p.i32(0) != FW_PROTO_VERSION) return reply_er(core::kErrVersion, true, FW_PROTO_VERSION);
-      return send_hello();
+      return send_hello(p.field_count > 1);
     case code_id('P', 'I'):
       return reply_ak('P', 'I', p.field_count > 0, p.field_count > 0 ? p.i32(0) : 0);
     case code_id('S', 'R'): {
@@ -603,7 +606,7 @@ void controller_init() {
   sei();
   report_set_rate(g_settings.report_hz, clock_micros());
   report_set_single_class(g_settings.companion == 2);
-  send_hello();
+  send_hello(false);
   if (g_settings.companion) {
     // the companion sketch homes in setup(): its scripts expect a homed robot
     homing_start(g_settings);

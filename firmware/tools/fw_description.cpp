@@ -147,10 +147,14 @@ Result<std::string> header_text(const RobotModel& m, const std::string& source) 
       "constexpr int32_t kHomeZ = {};\n"
       "constexpr int32_t kHomeJ2 = {};\n"
       "constexpr int32_t kHomeJ3 = {};\n\n"
+      "// the description's hash (scaratwin::description_hash(), docs/protocol.md section 11),\n"
+      "// which the firmware's hello carries so that a hub built for another description\n"
+      "// refuses it\n"
+      "constexpr char kDescriptionHash[] = \"{}\";\n\n"
       "}}  // namespace desc\n"
       "}}  // namespace fw\n",
       m.home[0], scaratwin::rad_to_deg(m.home[1]), scaratwin::rad_to_deg(m.home[2]), home[0],
-      home[1], home[2]);
+      home[1], home[2], scaratwin::description_hash(m));
   return h;
 }
 

@@ -60,6 +60,7 @@ RobotModel model_for(const RobotModel& base, const Theta& t) {
   c.wrist_offset_rad = v(Param::kWristOffset);
   c.wrist_gain = v(Param::kWristGain);
   c.backlash = {0.0, v(Param::kJ2Backlash), v(Param::kJ3Backlash)};
+  for (int i = 0; i < kNumJoints; ++i) c.a_delta_m[i] += m.dh[i].a_m - base.dh[i].a_m;
   return m;
 }
 

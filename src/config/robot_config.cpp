@@ -302,12 +302,16 @@ void read_calibration(TableReader& top, RobotModel& m) {
   };
   TableReader id = c.sub("identified");
   std::string valid;
+  std::array<double, kNumJoints> nominal_a_m{};
+  for (int i = 0; i < kNumJoints; ++i) nominal_a_m[i] = m.dh[i].a_m;
   for (const Key& k : keys) {
     std::array<double, 2> v{std::nan(""), 0.0};  // value, standard error
     id.numbers(k.key, v);
     if (!std::isnan(v[0])) *k.field += v[0] * k.to_si;
     valid += std::string(k.key) + ", ";
   }
+  // what the links gained, so that the nominal description stays known
+  for (int i = 0; i < kNumJoints; ++i) j.a_delta_m[i] += m.dh[i].a_m - nominal_a_m[i];
   // the camera's adjustments are recorded for the reader; the webcam table below is absolute
   static constexpr const char* kCamera[] = {"camera_dx_mm", "camera_dy_mm", "camera_dz_mm",
                                             "camera_rx_deg", "camera_ry_deg", "camera_rz_deg",

@@ -40,10 +40,27 @@ constexpr double kRobotSilenceAbortMinS = 1.5;
 constexpr std::int64_t kLatePassUs = 100000;
 
 // The hub's hello to the simulator: with a token it says it means to control (security.md).
-pr::Hello sim_hello(const HubOptions& o) {
+// `description`: the hash of the hub's robot description, or "" for a v1 hello.
+pr::Hello sim_hello(const HubOptions& o, const std::string& description) {
   const std::string role =
       !o.sim_role.empty() ? o.sim_role : (o.sim_token.empty() ? "" : "control");
-  return pr::Hello{pr::kProtocolVersion, role, o.sim_token};
+  return pr::Hello{pr::kProtocolVersion, role, o.sim_token, description};
+}
+
+// A v1 peer does not know the hello's description field: it answers ER 4 (wrong field count).
+bool refused_described_hello(const Error& e) {
+  return e.code == protocol_error_code(pr::core::kErrWrongFieldCount);
+}
+
+// Checks the description hash of a peer's hello against the hub's (docs/protocol.md section
+// 11): a peer that sends none is a v1 peer and accepted.
+Status check_description(const pr::PeerHello& hi, const std::string& peer, const std::string& own,
+                         const HubOptions& o, const char* fix) {
+  if (hi.description.empty() || hi.description == own) return Ok{};
+  const std::string source =
+      o.description_source.empty() ? std::string{} : fmt::format(" ({})", o.description_source);
+  return hub_error(fmt::format("{} was built for robot description {}, this hub for {}{}: {}", peer,
+                               hi.description, own, source, fix));
 }
 
 // What an ER,18 to the hub's hello means (docs/protocol.md section 6), from the refusal text.
@@ -134,22 +151,57 @@ Result<std::unique_ptr<Hub>> Hub::connect(const RobotModel& model, const HubOpti
   });
 
   // hellos: a real board may still be in its bootloader, so retry until the timeout.
+  // The hello carries the hub's description hash; the robot answers with its own. A v1 robot
+  // refuses the field (then it gets a v1 hello) or answers without a hash. A hello without
+  // one may also be the robot's own after a reset (a real board resets when the port opens),
+  // so only a second one in a row counts as a v1 robot's.
+  const std::string description = description_hash(model);
   const auto deadline = std::chrono::steady_clock::now() + ms(o.hello_timeout_s);
+  bool described = true;
+  int undescribed_replies = 0;
   for (;;) {
-    auto r = t->robot_->request(pr::Hello{}, milliseconds(500));
+    auto r = t->robot_->request(
+        pr::Hello{pr::kProtocolVersion, {}, {}, described ? description : ""}, milliseconds(500));
+    if (!r && described && refused_described_hello(r.error())) {
+      described = false;
+      continue;
+    }
     if (r) {
       const auto* hi = std::get_if<pr::PeerHello>(&r->last());
       if (hi == nullptr || hi->version != pr::kProtocolVersion) {
         return hub_error("physical robot: unexpected hello reply (protocol version mismatch?)");
       }
-      break;
+      if (Status s = check_description(
+              *hi, fmt::format("the physical robot's firmware on {}", o.serial_device), description,
+              o,
+              "build and flash the firmware for this description (cmake "
+              "-DSCARATWIN_ROBOT_DESCRIPTION=FILE), or start the hub with the firmware's --config");
+          !s) {
+        return s.error();
+      }
+      if (!described || !hi->description.empty() || ++undescribed_replies >= 2) break;
+      continue;
     }
     if (std::chrono::steady_clock::now() > deadline) {
       return hub_error(fmt::format("physical robot on {} did not answer hello within {} s: {}",
                                    o.serial_device, o.hello_timeout_s, r.error().message));
     }
   }
-  auto hi = t->sim_->request(sim_hello(o), ms(o.hello_timeout_s));
+  auto hi = t->sim_->request(sim_hello(o, description), ms(o.hello_timeout_s));
+  if (!hi && refused_described_hello(hi.error())) {
+    hi = t->sim_->request(sim_hello(o, ""), ms(o.hello_timeout_s));
+  }
+  if (hi) {
+    const auto* peer = std::get_if<pr::PeerHello>(&hi->last());
+    if (peer != nullptr) {
+      if (Status s = check_description(
+              *peer, fmt::format("the simulator at {}:{}", o.sim_host, o.sim_port), description, o,
+              "start both with the same --config");
+          !s) {
+        return s.error();
+      }
+    }
+  }
   if (!hi) {
     if (hi.error().code == protocol_error_code(pr::kErrAccess)) {
       return hub_error(fmt::format("simulator at {}:{} refused the hub: {}", o.sim_host, o.sim_port,
@@ -248,8 +300,18 @@ void Hub::on_sim_link(tr::LinkState state) {
     // a new connection: the hello again (the simulator admits a client on it, with the token
     // when it asks for one). The simulator counts as back once it answers: a hung one accepts
     // connections in its kernel and never answers (the heartbeat drops those again).
-    (void)sim_->post(sim_hello(options_), [this](Result<tr::SimChannel::Reply>&& r) {
-      if (r) {
+    const std::string description = description_hash(model_);
+    (void)sim_->post(sim_hello(options_, description), [this, description](
+                                                           Result<tr::SimChannel::Reply>&& r) {
+      const pr::PeerHello* peer = r ? std::get_if<pr::PeerHello>(&r->last()) : nullptr;
+      Status same = peer != nullptr
+                        ? check_description(*peer, "the simulator", description, options_,
+                                            "start both with the same --config")
+                        : Status{Ok{}};
+      if (!same) {
+        // a simulator restarted with another description: not back (nothing is sent to it)
+        std::fprintf(stderr, "scaratwin: %s\n", same.error().message.c_str());
+      } else if (r || refused_described_hello(r.error())) {
         on_sim_answered();
       } else if (r.error().code == pr::kErrAccess) {
         std::fprintf(stderr, "scaratwin: the simulator refused the hub: %s\n",

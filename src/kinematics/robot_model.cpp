@@ -1,7 +1,11 @@
 #include "scaratwin/kinematics/robot_model.hpp"
 
+#include <charconv>
 #include <cmath>
+#include <cstdio>
+#include <initializer_list>
 #include <string>
+#include <utility>
 
 #include <fmt/format.h>
 
@@ -234,6 +238,79 @@ Result<CubeColor> parse_color(std::string_view name) {
   if (name == "blue") return CubeColor::kBlue;
   return Error{ConfigError::kUnknownColour,
                fmt::format("unknown colour '{}': expected red, green or blue", name)};
+}
+
+namespace {
+
+// %.9g, whatever the locale; -0 as 0.
+void put_number(std::string& out, double v) {
+  if (v == 0.0) v = 0.0;
+  char buf[32];
+  const auto r = std::to_chars(buf, buf + sizeof buf, v, std::chars_format::general, 9);
+  out.append(buf, r.ptr);
+}
+
+// key=v1,v2,...\n; `type` (a DH row's p or r), when given, is the first field.
+void put_line(std::string& out, const std::string& key, std::initializer_list<double> values,
+              char type = '\0') {
+  out += key;
+  out += '=';
+  bool first = true;
+  if (type != '\0') {
+    out += type;
+    first = false;
+  }
+  for (double v : values) {
+    if (!first) out += ',';
+    first = false;
+    put_number(out, v);
+  }
+  out += '\n';
+}
+
+}  // namespace
+
+std::string description_identity(const RobotModel& m) {
+  std::string out;
+  for (int i = 0; i < kNumJoints; ++i) {
+    const DhRow& r = m.dh[i];
+    const double nominal_a_m = r.a_m - m.calibration.a_delta_m[i];
+    put_line(out, fmt::format("dh{}", i + 1), {r.theta_rad, r.d_m, nominal_a_m, r.alpha_rad},
+             r.type == JointType::kPrismatic ? 'p' : 'r');
+  }
+  for (int i = 0; i < kNumJoints; ++i) {
+    put_line(out, fmt::format("limit{}", i + 1), {m.limits[i].min, m.limits[i].max});
+  }
+  put_line(out, "home", {m.home[0], m.home[1], m.home[2], m.home[3]});
+  const MotorModel& mo = m.motors;
+  put_line(out, "steps_per_unit",
+           {mo.z.steps_per_unit, mo.j2.steps_per_unit, mo.j3.steps_per_unit});
+  put_line(out, "coupling", {mo.j3_per_j2_coupling});
+  for (const auto& [key, s] :
+       {std::pair{"servo_wrist", &mo.wrist}, std::pair{"servo_gripper", &mo.gripper}}) {
+    put_line(out, key, {s->min_deg, s->max_deg, s->pulse_min_us, s->pulse_max_us});
+  }
+  const EndstopModel& e = m.endstops;
+  put_line(out, "endstop_closes_at", {e.closes_at[0], e.closes_at[1], e.closes_at[2]});
+  put_line(out, "endstop_homing_dir",
+           {static_cast<double>(e.homing_dir[0]), static_cast<double>(e.homing_dir[1]),
+            static_cast<double>(e.homing_dir[2])});
+  return out;
+}
+
+std::uint32_t fnv1a32(std::string_view bytes) {
+  std::uint32_t h = 2166136261u;
+  for (char c : bytes) {
+    h ^= static_cast<std::uint8_t>(c);
+    h *= 16777619u;
+  }
+  return h;
+}
+
+std::string description_hash(const RobotModel& model) {
+  char buf[9];
+  std::snprintf(buf, sizeof buf, "%08x", fnv1a32(description_identity(model)));
+  return buf;
 }
 
 }  // namespace scaratwin

@@ -14,7 +14,7 @@ namespace core {
 namespace {
 
 const CodeSpec kSerialHostToDeviceCodes[] = {
-    make_code('H', 'I', 1, "i"),        // proto_version
+    make_code('H', 'I', 1, "it"),       // proto_version [description]
     make_code('P', 'I', 0, "i"),        // [token]
     make_code('S', 'R', 1, "i"),        // rate_hz
     make_code('Q', 'S', 0, ""),         //
@@ -28,7 +28,7 @@ const CodeSpec kSerialHostToDeviceCodes[] = {
 };
 
 const CodeSpec kSerialDeviceToHostCodes[] = {
-    make_code('H', 'I', 3, "itt"),        // proto_version device fw_version
+    make_code('H', 'I', 3, "ittt"),       // proto_version device fw_version [description]
     make_code('S', 'T', 9, "iuiiiiiii"),  // seq t_us z j2 j3 wrist grip flags queue_free
     make_code('A', 'K', 1, "ti"),         // code [value]
     make_code('E', 'R', 1, "ii"),         // err_code [detail]
@@ -36,7 +36,7 @@ const CodeSpec kSerialDeviceToHostCodes[] = {
 };
 
 const CodeSpec kTcpHubToSimCodes[] = {
-    make_code('H', 'I', 1, "itt"),     // proto_version [role] [token]
+    make_code('H', 'I', 1, "ittt"),    // proto_version [role] [token] [description]
     make_code('P', 'I', 0, "i"),       // [token]
     make_code('J', 'D', 6, "iudddd"),  // seq t_us d1_mm q2_deg q3_deg q4_deg
     make_code('T', 'J', 6, "iudddd"),  // seq t_us d1_mm q2_deg q3_deg q4_deg
@@ -52,7 +52,7 @@ const CodeSpec kTcpHubToSimCodes[] = {
 };
 
 const CodeSpec kTcpSimToHubCodes[] = {
-    make_code('H', 'I', 3, "itt"),                 // proto_version device version
+    make_code('H', 'I', 3, "ittt"),                // proto_version device version [description]
     make_code('J', 'A', 2, "iu"),                  // seq t_apply_us
     make_code('G', 'R', 2, "ii"),                  // state held_id
     make_code('I', 'M', 1, "i", kCodeHasPayload),  // nbytes, then the PNG bytes

@@ -117,8 +117,34 @@ Decoded<Direction> ack_or_error(const Packet& p) {
   return checked<Direction>(error, ErrorReply{p.i32(0), optional_field(p, 1)});
 }
 
-PeerHello peer_hello(const Packet& p) {
-  return PeerHello{p.i32(0), field_text(p, 1), field_text(p, 2)};
+// A description hash field: 8 lower-case hex digits (docs/protocol.md section 11).
+bool is_description(const Packet& p, std::uint8_t i) {
+  if (p.field_length[i] != 8) return false;
+  const char* s = p.text(i);
+  for (int k = 0; k < 8; ++k) {
+    if (!((s[k] >= '0' && s[k] <= '9') || (s[k] >= 'a' && s[k] <= 'f'))) return false;
+  }
+  return true;
+}
+
+// The optional description hash in field i of a hello, "" when the hello has none.
+template <typename Direction>
+std::optional<Decoded<Direction>> description_field(const Packet& p, std::uint8_t i,
+                                                    std::string* out) {
+  if (p.field_count <= i) return std::nullopt;
+  if (!is_description(p, i)) {
+    return Decoded<Direction>(std::in_place_index<1>,
+                              bad_value(p, i, "a description hash of 8 lower-case hex digits"));
+  }
+  *out = field_text(p, i);
+  return std::nullopt;
+}
+
+template <typename Direction>
+Decoded<Direction> peer_hello(const Packet& p) {
+  PeerHello hi{p.i32(0), field_text(p, 1), field_text(p, 2), {}};
+  if (auto bad = description_field<Direction>(p, 3, &hi.description)) return std::move(*bad);
+  return make<Direction>(std::move(hi));
 }
 
 }  // namespace
@@ -127,8 +153,11 @@ Decoded<SerialToDevice> to_message(const Packet& p, SerialToDevice*) {
   using M = SerialToDevice;
   std::optional<DecodeError> error;
   switch (p.code) {
-    case code_id('H', 'I'):
-      return make<M>(Hello{p.i32(0), {}, {}});
+    case code_id('H', 'I'): {
+      Hello hello{p.i32(0), {}, {}, {}};
+      if (auto bad = description_field<M>(p, 1, &hello.description)) return std::move(*bad);
+      return make<M>(std::move(hello));
+    }
     case code_id('P', 'I'):
       return make<M>(Ping{optional_field(p, 0)});
     case code_id('S', 'R'):
@@ -178,7 +207,7 @@ Decoded<SerialFromDevice> to_message(const Packet& p, SerialFromDevice*) {
   std::optional<DecodeError> error;
   switch (p.code) {
     case code_id('H', 'I'):
-      return make<M>(peer_hello(p));
+      return peer_hello<M>(p);
     case code_id('S', 'T'): {
       in_range(p, 0, 0, 65535, &error) && in_range(p, 7, 0, 0x7fffffff, &error) &&
           in_range(p, 8, 0, 65535, &error);
@@ -210,14 +239,16 @@ Decoded<TcpToSim> to_message(const Packet& p, TcpToSim*) {
   std::optional<DecodeError> error;
   switch (p.code) {
     case code_id('H', 'I'): {
-      Hello hello{p.i32(0), {}, {}};
+      Hello hello{p.i32(0), {}, {}, {}};
       if (p.field_count > 1) {
         if (!p.text_equals(1, "control") && !p.text_equals(1, "observe")) {
           return bad_value(p, 1, "control or observe");
         }
         hello.role = field_text(p, 1);
       }
-      if (p.field_count > 2) hello.token = field_text(p, 2);
+      // "-": no token (a hello that carries a description hash but no token)
+      if (p.field_count > 2 && !p.text_equals(2, "-")) hello.token = field_text(p, 2);
+      if (auto bad = description_field<M>(p, 3, &hello.description)) return std::move(*bad);
       return make<M>(std::move(hello));
     }
     case code_id('P', 'I'):
@@ -279,7 +310,7 @@ Decoded<TcpFromSim> to_message(const Packet& p, TcpFromSim*) {
   std::optional<DecodeError> error;
   switch (p.code) {
     case code_id('H', 'I'):
-      return make<M>(peer_hello(p));
+      return peer_hello<M>(p);
     case code_id('J', 'A'):
       in_range(p, 0, 0, 65535, &error);
       return checked<M>(error, JointApplied{seq_of(p, 0), p.u32(1)});

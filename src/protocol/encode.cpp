@@ -16,7 +16,9 @@ using core::code_id;
 class Writer {
  public:
   Writer(const core::LinkSpec& link, char* buffer, std::size_t capacity)
-      : encoder_(link, buffer, capacity) {}
+      : encoder_(link, buffer, capacity), tcp_(link.delimiter == ',') {}
+
+  bool tcp() const { return tcp_; }
 
   void begin(char a, char b) {
     code_ = std::string{a, b};
@@ -26,6 +28,12 @@ class Writer {
   void u32(std::uint32_t v) { encoder_.add_u32(v); }
   void text(const std::string& s, const char* name) {
     if (s.empty() || s.size() > core::kMaxTextLength) fail(name, "'" + s + "'", "1..32 characters");
+    encoder_.add_text(s.data(), s.size());
+  }
+  // a description hash: 8 lower-case hex digits
+  void description(const std::string& s) {
+    const bool ok = s.size() == 8 && s.find_first_not_of("0123456789abcdef") == std::string::npos;
+    if (!ok) fail("description", "'" + s + "'", "8 lower-case hex digits");
     encoder_.add_text(s.data(), s.size());
   }
   void opt(const std::optional<std::int32_t>& v) {
@@ -87,6 +95,7 @@ class Writer {
   }
 
   core::Encoder encoder_;
+  bool tcp_;
   std::string code_;
   std::optional<Error> error_;
 };
@@ -95,14 +104,20 @@ class Writer {
 void put(Writer& w, const Hello& m) {
   w.begin('H', 'I');
   w.i32(m.version);
-  if (!m.role.empty() || !m.token.empty()) w.text(m.role.empty() ? "control" : m.role, "role");
-  if (!m.token.empty()) w.text(m.token, "token");
+  // on TCP the description hash follows the role and the token ("-": none)
+  const bool described = !m.description.empty();
+  if (w.tcp() && (!m.role.empty() || !m.token.empty() || described)) {
+    w.text(m.role.empty() ? "control" : m.role, "role");
+  }
+  if (w.tcp() && (!m.token.empty() || described)) w.text(m.token.empty() ? "-" : m.token, "token");
+  if (described) w.description(m.description);
 }
 void put(Writer& w, const PeerHello& m) {
   w.begin('H', 'I');
   w.i32(m.version);
   w.text(m.device, "device");
   w.text(m.software_version, "software_version");
+  if (!m.description.empty()) w.description(m.description);
 }
 void put(Writer& w, const Ping& m) {
   w.begin('P', 'I');

@@ -52,7 +52,18 @@ struct SimServer::Impl {
   std::atomic<std::uint64_t> packets{0}, errors_sent{0}, joint_frames{0}, images_sent{0},
       warnings_sent{0};
 
-  Impl(World& w, ServerOptions o) : world(w), options(std::move(o)) {}
+  // the hash of the description the simulator runs, which its hello carries
+  std::string description;
+
+  Impl(World& w, ServerOptions o)
+      : world(w), options(std::move(o)), description(description_hash(w.robot())) {}
+
+  // The hello reply: with the description hash when the hub's hello carried its own (a v1
+  // hub gets a v1 reply).
+  proto::PeerHello peer_hello(const proto::Hello& m) const {
+    return proto::PeerHello{core::kProtocolVersion, kDeviceName, kSoftwareVersion,
+                            m.description.empty() ? std::string{} : description};
+  }
 
   void put(std::string& out, const proto::TcpFromSim& m) {
     if (std::holds_alternative<proto::ErrorReply>(m)) ++errors_sent;
@@ -81,7 +92,14 @@ struct SimServer::Impl {
     if (options.on_new_stream) options.on_new_stream();
     // a new hub: a homing phase a hub left unfinished (it died) ends here
     world.with_simulation([](Simulation& s) { s.restart_limit_warnings(); });
-    put(out, proto::PeerHello{core::kProtocolVersion, kDeviceName, kSoftwareVersion});
+    if (!m.description.empty() && m.description != description) {
+      std::fprintf(stderr,
+                   "scaratwin-sim: a hub built for robot description %s said hello; this "
+                   "simulator runs description %s (the hub refuses it: start both with the same "
+                   "--config)\n",
+                   m.description.c_str(), description.c_str());
+    }
+    put(out, peer_hello(m));
   }
   void on(std::string& out, const proto::Ping& m) { put(out, proto::Ack{"PI", m.token}); }
   // A JD/TJ with a joint no robot can have (implausible_joint()) is refused with one
@@ -283,7 +301,7 @@ struct SimServer::Impl {
         if (hi->version != core::kProtocolVersion) {
           error(out, core::kErrVersion, core::kProtocolVersion);
         } else {
-          put(out, proto::PeerHello{core::kProtocolVersion, kDeviceName, kSoftwareVersion});
+          put(out, peer_hello(*hi));
         }
       } else if (std::holds_alternative<proto::Ping>(msg) ||
                  std::holds_alternative<proto::QueryState>(msg) ||

@@ -301,6 +301,11 @@ TEST(Calibration, TheOverlayLoadsAsTheCalibratedDescription) {
   EXPECT_NEAR(loaded->webcam.f_px, want.webcam.f_px, 1e-6);
   EXPECT_NEAR(loaded->webcam.k1, want.webcam.k1, 1e-9);
   for (int i = 0; i < 9; ++i) EXPECT_NEAR(loaded->webcam.r_bc[i], want.webcam.r_bc[i], 1e-11);
+  // the calibrated robot is still the robot the firmware and the simulator were built for:
+  // its links moved, its description hash (the hello's, docs/protocol.md section 11) did not
+  EXPECT_NE(loaded->dh[1].a_m, base->dh[1].a_m);
+  EXPECT_EQ(description_hash(*loaded), description_hash(*base));
+  EXPECT_EQ(description_hash(want), description_hash(*base));
 
   // an overlay refines only: a stray key is named
   {

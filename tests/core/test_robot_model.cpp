@@ -2,10 +2,13 @@
 // that breaks it with code 1 and a message naming the key, the bad value and what is valid,
 // including the rules the description parser cannot reach (a model built in code). Colour names.
 #include <cmath>
+#include <cstdint>
 #include <functional>
 #include <string>
+#include <utility>
 #include <vector>
 
+#include <fmt/format.h>
 #include <gtest/gtest.h>
 
 #include "scaratwin/core/units.hpp"
@@ -217,6 +220,84 @@ TEST(Color, NamesAndParsesTheThreeColours) {
   EXPECT_EQ(bad.error().code, error_code(ConfigError::kUnknownColour));
   EXPECT_EQ(bad.error().message, "unknown colour 'Red': expected red, green or blue");
   EXPECT_EQ(parse_color("").error().message, "unknown colour '': expected red, green or blue");
+}
+
+// --- the description's identity and hash (docs/protocol.md section 11) ----------------------
+
+// FNV-1a written out here from its definition, not taken from the library.
+std::uint32_t reference_fnv1a(const std::string& s) {
+  std::uint32_t h = 2166136261u;
+  for (unsigned char c : s) h = (h ^ c) * 16777619u;
+  return h;
+}
+
+TEST(DescriptionHash, IsTheFnv1aOfTheDocumentedText) {
+  // the paper's robot in the canonical text of robot_model.hpp: %.9g numbers, radians
+  const std::string text =
+      "dh1=p,0,0,0.067,0\n"
+      "dh2=r,0,-0.017,0.092,0\n"
+      "dh3=r,0,-0.01,0.095,0\n"
+      "dh4=r,0,-0.04,0,0\n"
+      "limit1=0.01,0.12\n"
+      "limit2=-1.83259571,2.00712864\n"
+      "limit3=-1.30899694,3.57792497\n"
+      "limit4=0,3.14159265\n"
+      "home=0.12,0,0,0\n"
+      "steps_per_unit=205560,945,1455\n"
+      "coupling=0.8\n"
+      "servo_wrist=0,180,544,2400\n"
+      "servo_gripper=0,180,544,2400\n"
+      "endstop_closes_at=0.1225,2.04203522,-1.34390352\n"
+      "endstop_homing_dir=1,1,-1\n";
+  EXPECT_EQ(description_identity(paper_robot()), text);
+  EXPECT_EQ(reference_fnv1a(""), 0x811c9dc5u);
+  EXPECT_EQ(fnv1a32(""), 0x811c9dc5u);
+  EXPECT_EQ(fnv1a32("a"), 0xe40c292cu);  // the published test vector
+  EXPECT_EQ(fnv1a32(text), reference_fnv1a(text));
+  EXPECT_EQ(description_hash(paper_robot()), fmt::format("{:08x}", reference_fnv1a(text)));
+  EXPECT_EQ(description_hash(paper_robot()), "f062700f");
+}
+
+TEST(DescriptionHash, NameSceneAndCalibrationDoNotChangeIt) {
+  const RobotModel paper = paper_robot();
+  const std::string hash = description_hash(paper);
+  RobotModel m = paper;
+  m.name = "another";
+  m.scene.table_z_m = -0.05;
+  m.scene.camera.fovy_deg = 50.0;
+  m.motors.z.max_speed_steps_s = 4000.0;
+  m.calibration.z_offset_m = 0.001;
+  m.calibration.j2_zero_rad = 0.01;
+  m.calibration.backlash = {0.0, 0.002, 0.003};
+  m.webcam.valid = true;
+  m.webcam.f_px = 600.0;
+  // what calibration does to the links: a_m and the record of what it added
+  m.dh[1].a_m += 0.00031;
+  m.calibration.a_delta_m[1] += m.dh[1].a_m - paper.dh[1].a_m;
+  m.dh[3].a_m += -0.0007;
+  m.calibration.a_delta_m[3] += m.dh[3].a_m - paper.dh[3].a_m;
+  EXPECT_EQ(description_hash(m), hash);
+}
+
+TEST(DescriptionHash, EveryIdentityFieldChangesIt) {
+  const std::string hash = description_hash(paper_robot());
+  const std::vector<std::pair<const char*, std::function<void(RobotModel&)>>> changes = {
+      {"a2 8 mm longer", [](RobotModel& m) { m.dh[1].a_m += 0.008; }},
+      {"d3", [](RobotModel& m) { m.dh[2].d_m = -0.011; }},
+      {"q2 limit", [](RobotModel& m) { m.limits[1].max = deg_to_rad(114.0); }},
+      {"home", [](RobotModel& m) { m.home[0] = 0.11; }},
+      {"j3 steps", [](RobotModel& m) { m.motors.j3.steps_per_unit = 1456.0; }},
+      {"coupling", [](RobotModel& m) { m.motors.j3_per_j2_coupling = 0.75; }},
+      {"wrist pulse", [](RobotModel& m) { m.motors.wrist.pulse_max_us = 2300.0; }},
+      {"gripper range", [](RobotModel& m) { m.motors.gripper.max_deg = 170.0; }},
+      {"z switch", [](RobotModel& m) { m.endstops.closes_at[0] = 0.123; }},
+      {"j3 homing direction", [](RobotModel& m) { m.endstops.homing_dir[2] = +1; }},
+  };
+  for (const auto& [what, change] : changes) {
+    RobotModel m = paper_robot();
+    change(m);
+    EXPECT_NE(description_hash(m), hash) << what;
+  }
 }
 
 }  // namespace

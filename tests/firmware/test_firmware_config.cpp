@@ -37,6 +37,12 @@ TEST(FirmwareDefaults, MotorLimitsServosAndCouplingAreTheDescriptions) {
   EXPECT_EQ(fw::kDefaultGripClosedCdeg, nearest(m.gripper_closed_deg * 100));
 }
 
+// The hash the firmware's hello carries is the description's (docs/protocol.md section 11),
+// so a hub on the same description accepts the firmware and one on another refuses it.
+TEST(FirmwareDefaults, HelloCarriesTheDescriptionsHash) {
+  EXPECT_STREQ(fw::desc::kDescriptionHash, scaratwin::description_hash(description()).c_str());
+}
+
 TEST(FirmwareDefaults, EndstopAndHomeCountsAreTheDescriptions) {
   const scaratwin::RobotModel model = description();
   const double kz = model.motors.z.steps_per_unit;   // steps per metre

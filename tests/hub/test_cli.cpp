@@ -13,6 +13,7 @@
 #include <filesystem>
 #include <fstream>
 #include <map>
+#include <memory>
 #include <sstream>
 #include <string>
 #include <utility>
@@ -21,6 +22,7 @@
 #include <fmt/format.h>
 #include <gtest/gtest.h>
 
+#include "scaratwin/config/robot_config.hpp"
 #include "scaratwin/hub/process.hpp"
 
 namespace scaratwin {
@@ -304,6 +306,114 @@ TEST(Cli, AScriptWithASyntaxErrorOnItsLastLineMovesNothing) {
   // the gripper still open: its pulse as at power-up, to within the servo interrupt's latency
   // (a cycle or two of the AVR's other interrupts: 1 cdeg is 0.1 us of pulse; closed is 7500)
   EXPECT_LE(std::abs(std::stoi(t.at("grip_cdeg"))), 2) << "the gripper still open";
+  fs::remove_all(dir);
+}
+
+// The paper's description with its upper arm 8 mm longer (a2 = 0.100 m), as a file in `dir`.
+fs::path longer_description(const fs::path& dir) {
+  std::ifstream in(SCARATWIN_CONFIG_FILE);
+  std::stringstream ss;
+  ss << in.rdbuf();
+  std::string text = ss.str();
+  const std::string paper_a2 = "a_m = 0.092";
+  const auto at = text.find(paper_a2);
+  if (at == std::string::npos) ADD_FAILURE() << "no '" << paper_a2 << "' in the description";
+  if (at != std::string::npos) text.replace(at, paper_a2.size(), "a_m = 0.100");
+  const fs::path longer = dir / "longer.toml";
+  std::ofstream(longer) << text;
+  return longer;
+}
+
+std::string hash_of(const fs::path& description) {
+  auto m = load_robot_config(description);
+  if (!m) {
+    ADD_FAILURE() << m.error().message;
+    return {};
+  }
+  return description_hash(*m);
+}
+
+// The emulated robot (its firmware built for config/scara.toml) and a simulator started on
+// `sim_config`.
+struct EmulatedRig {
+  std::unique_ptr<ChildProcess> robot, sim;
+  fs::path pty;
+  std::string sim_address;
+  int side_port = 0;
+};
+
+void start_rig(const fs::path& dir, const fs::path& sim_config, EmulatedRig* rig) {
+  rig->pty = dir / "robot.pty";
+  auto robot =
+      ChildProcess::start(kBin / "scaratwin-robot",
+                          {"--plant", "ideal", "--pty-link", rig->pty.string()}, dir / "robot.log");
+  ASSERT_TRUE(robot) << robot.error().message;
+  rig->robot = std::move(*robot);
+  auto sim = ChildProcess::start(
+      kBin / "scaratwin-sim",
+      {"--port", "0", "--http-port", "0", "--no-camera", "--config", sim_config.string()},
+      dir / "sim.log");
+  ASSERT_TRUE(sim) << sim.error().message;
+  rig->sim = std::move(*sim);
+  auto side = rig->robot->wait_for_line("side channel: ", 60s);
+  ASSERT_TRUE(side) << side.error().message;
+  rig->side_port = std::stoi(side->substr(side->rfind(':') + 1));
+  auto listening = rig->sim->wait_for_line("listening on", 60s);
+  ASSERT_TRUE(listening) << listening.error().message;
+  const size_t paren = listening->find(" (");
+  const size_t colon = listening->rfind(':', paren);
+  rig->sim_address = "127.0.0.1:" + listening->substr(colon + 1, paren - colon - 1);
+}
+
+// The hello carries the robot description's hash (docs/protocol.md section 11): a hub refuses
+// a simulator started on another description, and a robot whose firmware was built for
+// another, with a message naming both hashes and both parties, before anything moves; on one
+// description the three connect.
+TEST(Cli, AHubRefusesPeersBuiltForAnotherDescription) {
+  const fs::path dir = fresh_dir("description");
+  const fs::path longer = longer_description(dir);
+  const std::string paper_hash = hash_of(SCARATWIN_CONFIG_FILE);
+  const std::string longer_hash = hash_of(longer);
+  ASSERT_EQ(paper_hash.size(), 8u);
+  ASSERT_NE(paper_hash, longer_hash);
+  ::unsetenv("SCARATWIN_CONFIG");
+  {
+    EmulatedRig rig;
+    ASSERT_NO_FATAL_FAILURE(start_rig(dir, longer, &rig));
+    const Outcome o = run_cli({"grip", "--serial", rig.pty.string(), "--sim", rig.sim_address,
+                               "--no-db", "--config", SCARATWIN_CONFIG_FILE});
+    EXPECT_EQ(o.status, 1) << o.output;
+    const std::string want = fmt::format(
+        "scaratwin grip: the simulator at {} was built for robot description {}, this hub for {} "
+        "({}): start both with the same --config\n",
+        rig.sim_address, longer_hash, paper_hash, SCARATWIN_CONFIG_FILE);
+    EXPECT_NE(o.output.find(want), std::string::npos) << "expected: " << want << o.output;
+    // the hub on the longer description: the robot's firmware (built for config/scara.toml)
+    // is refused first
+    const Outcome r = run_cli({"grip", "--serial", rig.pty.string(), "--sim", rig.sim_address,
+                               "--no-db", "--config", longer.string()});
+    EXPECT_EQ(r.status, 1) << r.output;
+    const std::string firmware = fmt::format(
+        "scaratwin grip: the physical robot's firmware on {} was built for robot description {}, "
+        "this hub for {} ({}): ",
+        rig.pty.string(), paper_hash, longer_hash, longer.string());
+    EXPECT_NE(r.output.find(firmware), std::string::npos) << "expected: " << firmware << r.output;
+    // nothing moved: no STEP pulse, the gripper still open
+    const auto t = truth(rig.side_port);
+    ASSERT_FALSE(t.empty()) << "no truth from the emulator";
+    EXPECT_EQ(t.at("steps_z"), "0");
+    EXPECT_EQ(t.at("steps_j2"), "0");
+    EXPECT_EQ(t.at("steps_j3"), "0");
+    EXPECT_LE(std::abs(std::stoi(t.at("grip_cdeg"))), 2) << "the gripper still open";
+  }
+  {
+    EmulatedRig rig;
+    ASSERT_NO_FATAL_FAILURE(start_rig(dir, SCARATWIN_CONFIG_FILE, &rig));
+    const Outcome o = run_cli({"grip", "--serial", rig.pty.string(), "--sim", rig.sim_address,
+                               "--no-db", "--config", SCARATWIN_CONFIG_FILE});
+    EXPECT_EQ(o.status, 0) << o.output;
+    EXPECT_EQ(o.output.find("robot description"), std::string::npos) << o.output;
+  }
   fs::remove_all(dir);
 }
 

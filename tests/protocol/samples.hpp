@@ -19,6 +19,7 @@ inline double deg(double v) { return deg_to_rad(v); }
 inline std::vector<SerialToDevice> serial_to_device_samples() {
   return {
       Hello{},
+      Hello{1, {}, {}, "c6e454cc"},
       Ping{},
       Ping{42},
       SetReportRate{250},
@@ -41,7 +42,8 @@ inline std::vector<SerialToDevice> serial_to_device_samples() {
 
 inline std::vector<SerialFromDevice> serial_from_device_samples() {
   return {
-      PeerHello{1, "scara-uno", "0.1.0"},
+      PeerHello{1, "scara-uno", "0.1.0", {}},
+      PeerHello{1, "scara-uno", "0.1.0", "c6e454cc"},
       DeviceState{65535,
                   4294967295u,
                   {24600, -1200, 2000},
@@ -64,6 +66,8 @@ inline std::vector<SerialFromDevice> serial_from_device_samples() {
 inline std::vector<TcpToSim> tcp_to_sim_samples() {
   return {
       Hello{},
+      Hello{1, "control", {}, "c6e454cc"},
+      Hello{1, "observe", "s3cret", "0123abcd"},
       Ping{7},
       JointData{17, 5000123, {mm(120), deg(12.5), deg(-30.25), deg(90)}},
       JointData{65535, 4294967295u, {mm(0.001), deg(-105), deg(204.9999), deg(0)}},
@@ -87,7 +91,8 @@ inline std::vector<TcpToSim> tcp_to_sim_samples() {
 
 inline std::vector<TcpFromSim> tcp_from_sim_samples() {
   return {
-      PeerHello{1, "scaratwin-sim", "0.1.0"},
+      PeerHello{1, "scaratwin-sim", "0.1.0", {}},
+      PeerHello{1, "scaratwin-sim", "0.1.0", "0badf00d"},
       JointApplied{17, 5000410},
       GripperState{true, 3},
       GripperState{false, -1},

@@ -100,7 +100,7 @@ TEST(ProtocolEncode, RefusesValuesTheWireCannotCarry) {
   const auto huge = encode(SpawnCube{CubeColor::kRed, 1e9, 0}, Framing::kTcp);
   ASSERT_FALSE(huge.ok());
   EXPECT_NE(huge.error().message.find("x_m"), std::string::npos) << huge.error().message;
-  const auto text = encode(PeerHello{1, "bad name", "1"}, Framing::kTcp);
+  const auto text = encode(PeerHello{1, "bad name", "1", {}}, Framing::kTcp);
   ASSERT_FALSE(text.ok());
   EXPECT_EQ(text.error().code, protocol_error_code(core::kErrBadValue));
   const auto wrong_link = encode(JointData{}, Framing::kSerial);
@@ -114,6 +114,61 @@ TEST(ProtocolEncode, RefusesValuesTheWireCannotCarry) {
   std::string out = "AK,RS,\n";
   EXPECT_FALSE(append(out, TcpToSim(JointData{1, 2, {INFINITY, 0, 0, 0}})).ok());
   EXPECT_EQ(out, "AK,RS,\n");
+}
+
+// The hello's description hash (docs/protocol.md section 11): an optional last field on both
+// links and in both directions; a v1 hello (without it) still decodes, to an empty hash.
+TEST(ProtocolHello, CarriesTheDescriptionHashOnBothLinks) {
+  EXPECT_EQ(*encode(Hello{1, {}, {}, "c6e454cc"}, Framing::kSerial), "HI=1=c6e454cc=\n");
+  EXPECT_EQ(*encode(Hello{1, {}, {}, "c6e454cc"}, Framing::kTcp), "HI,1,control,-,c6e454cc,\n");
+  EXPECT_EQ(*encode(Hello{1, "observe", "tok", "c6e454cc"}, Framing::kTcp),
+            "HI,1,observe,tok,c6e454cc,\n");
+  EXPECT_EQ(*encode(PeerHello{1, "scara-uno", "0.1.0", "0badf00d"}, Framing::kSerial),
+            "HI=1=scara-uno=0.1.0=0badf00d=\n");
+  EXPECT_EQ(*encode(PeerHello{1, "scaratwin-sim", "0.1.0", "0badf00d"}, Framing::kTcp),
+            "HI,1,scaratwin-sim,0.1.0,0badf00d,\n");
+
+  SerialToDeviceDecoder to_device;
+  auto got = to_device.feed("HI=1=c6e454cc=\nHI=1=\n");
+  ASSERT_EQ(got.size(), 2u);
+  EXPECT_EQ(std::get<Hello>(std::get<0>(got[0])).description, "c6e454cc");
+  EXPECT_EQ(std::get<Hello>(std::get<0>(got[1])).description, "");
+  TcpToSimDecoder to_sim;
+  auto hi = to_sim.feed("HI,1,control,-,c6e454cc,\nHI,1,control,tok,\n");
+  ASSERT_EQ(hi.size(), 2u);
+  const auto& described = std::get<Hello>(std::get<0>(hi[0]));
+  EXPECT_EQ(described.token, "") << "'-' stands for no token";
+  EXPECT_EQ(described.description, "c6e454cc");
+  EXPECT_EQ(std::get<Hello>(std::get<0>(hi[1])).token, "tok");
+  EXPECT_EQ(std::get<Hello>(std::get<0>(hi[1])).description, "");
+  SerialFromDeviceDecoder from_device;
+  auto peer = from_device.feed("HI=1=scara-uno=0.1.0=0badf00d=\nHI=1=scara-uno=0.1.0=\n");
+  ASSERT_EQ(peer.size(), 2u);
+  EXPECT_EQ(std::get<PeerHello>(std::get<0>(peer[0])).description, "0badf00d");
+  EXPECT_EQ(std::get<PeerHello>(std::get<0>(peer[1])).description, "");
+}
+
+TEST(ProtocolHello, ABadDescriptionHashIsBadValueNamingTheField) {
+  TcpFromSimDecoder from_sim;
+  for (const char* line :
+       {"HI,1,scaratwin-sim,0.1.0,C6E454CC,\n", "HI,1,scaratwin-sim,0.1.0,c6e454c,\n",
+        "HI,1,scaratwin-sim,0.1.0,c6e454ccc,\n", "HI,1,scaratwin-sim,0.1.0,c6e454cg,\n"}) {
+    auto got = from_sim.feed(line);
+    ASSERT_EQ(got.size(), 1u) << line;
+    const auto* e = std::get_if<DecodeError>(&got[0]);
+    ASSERT_NE(e, nullptr) << line;
+    EXPECT_EQ(e->code, core::kErrBadValue) << line;
+    EXPECT_EQ(e->detail, 3) << line;
+    EXPECT_NE(e->message.find("8 lower-case hex digits"), std::string::npos) << e->message;
+  }
+  SerialToDeviceDecoder to_device;
+  auto got = to_device.feed("HI=1=xyz=\n");
+  ASSERT_EQ(got.size(), 1u);
+  ASSERT_TRUE(std::holds_alternative<DecodeError>(got[0]));
+  EXPECT_EQ(std::get<DecodeError>(got[0]).detail, 1);
+  const auto bad = encode(Hello{1, {}, {}, "C6E454CC"}, Framing::kSerial);
+  ASSERT_FALSE(bad.ok());
+  EXPECT_EQ(bad.error().code, protocol_error_code(core::kErrBadValue));
 }
 
 TEST(ProtocolDecode, ConvertsToSi) {

@@ -215,7 +215,7 @@ TEST_F(AccessTest, TokenIsCheckedOnEveryConnection) {
   EXPECT_EQ(cubes(), 0u);
   // the hub's hello, as the hub encodes it
   const auto hello =
-      protocol::encode(protocol::TcpToSim(protocol::Hello{1, "control", "s3cret-Token_1"}));
+      protocol::encode(protocol::TcpToSim(protocol::Hello{1, "control", "s3cret-Token_1", {}}));
   ASSERT_TRUE(hello.ok());
   EXPECT_EQ(*hello, "HI,1,control,s3cret-Token_1,\n");
   Peer hub(server_->port());

@@ -237,6 +237,20 @@ TEST_F(SimServerTest, NoLimitWarningWhileTheRobotHomes) {
   EXPECT_EQ(world_->snapshot().warnings_total, 2u);
 }
 
+// The hello's description hash (docs/protocol.md section 11.2): a hub's hello that carries
+// one gets the simulator's own in the reply, whatever it is (the hub compares); a v1 hello
+// gets a v1 reply.
+TEST_F(SimServerTest, AHelloWithADescriptionHashIsAnsweredWithTheSimulatorsOwn) {
+  const std::string own = description_hash(world_->robot());
+  ASSERT_EQ(own.size(), 8u);
+  EXPECT_EQ(server_->handle_line("HI,1,control,-," + own + ","),
+            "HI,1,scaratwin-sim,0.1.0," + own + ",\n");
+  EXPECT_EQ(server_->handle_line("HI,1,control,-,0badf00d,"),
+            "HI,1,scaratwin-sim,0.1.0," + own + ",\n");
+  EXPECT_EQ(server_->handle_line("HI,1,"), "HI,1,scaratwin-sim,0.1.0,\n");
+  EXPECT_EQ(server_->handle_line("HI,1,control,-,0BADF00D,"), "ER,11,3,\n");
+}
+
 TEST_F(SimServerTest, SimulateModeFollowsTargetsAndGrasps) {
   world_->start();
   ASSERT_TRUE(client_->send("MD,simulate,\nSC,red,150,0,\nJD,1,0,80,0,0,0,\n").ok());

@@ -132,7 +132,7 @@ class DevicePeer {
     std::lock_guard lock(m);
     const auto free_slots = static_cast<std::int32_t>(kSlots - queue.size());
     if (std::get_if<Hello>(&msg)) {
-      reply(PeerHello{1, "test-uno", "0.0.1"});
+      reply(PeerHello{1, "test-uno", "0.0.1", {}});
     } else if (std::get_if<QueryState>(&msg)) {
       if (ignore_queries) return;
       DeviceState st;
@@ -259,7 +259,7 @@ class SimPeer {
     auto& msg = std::get<TcpToSim>(d);
     std::lock_guard lock(m);
     if (std::get_if<Hello>(&msg)) {
-      reply(PeerHello{1, "test-sim", "0.0.1"});
+      reply(PeerHello{1, "test-sim", "0.0.1", {}});
     } else if (auto* ping = std::get_if<Ping>(&msg)) {
       if (!ignore_pings) reply(Ack{"PI", ping->token});
     } else if (auto* jd = std::get_if<JointData>(&msg)) {

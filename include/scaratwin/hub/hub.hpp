@@ -62,6 +62,9 @@ struct HubOptions {
   // reports come back with the robot's clock as far on, the link was cut, and a trajectory
   // running is stopped (docs/protocol.md section 11.1). 0: not watched.
   double robot_silence_s = 0.15;
+  // Where the hub's robot description came from (config/scara.toml), for the message that
+  // refuses a robot or a simulator built for another description; may be empty.
+  std::string description_source;
 };
 
 // The robot as its last state report showed it.

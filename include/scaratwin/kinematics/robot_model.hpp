@@ -6,7 +6,9 @@
 #pragma once
 
 #include <array>
+#include <cstdint>
 #include <string>
+#include <string_view>
 #include <vector>
 
 #include "scaratwin/core/result.hpp"
@@ -96,6 +98,9 @@ struct JointCalibration {
   double wrist_offset_rad = 0.0;
   double wrist_gain = 0.0;
   std::array<double, 3> backlash{};  // Z (m), J2, J3 (rad): full dead band
+  // What calibration added to each DH row's a_m (the links a2, a3 and the jaw offset; m), so
+  // that the nominal description stays known (description_identity()).
+  std::array<double, kNumJoints> a_delta_m{};
 };
 
 // The physical overhead webcam as calibrated (pinhole + radial distortion k1, k2 on normalised
@@ -177,5 +182,35 @@ RobotModel paper_robot();
 Status validate(const RobotModel& model);
 
 Result<CubeColor> parse_color(std::string_view name);
+
+// --- description identity (docs/protocol.md section 11) ------------------------------------
+//
+// What a hub, a simulator and a firmware built from one description share: the nominal
+// geometry and motor constants. Not the name, not the scene (the hub's and the simulator's
+// business alone), not the as-built `physical` section, not `calibration` or `webcam` (they
+// change the hub's view of the robot, not the robot).
+//
+// A calibrated model's link lengths are the nominal ones plus calibration.a_delta_m; the
+// identity takes the nominal ones (dh a_m - a_delta_m).
+// The canonical text, one line per item, each ending in '\n', fields separated by ',':
+//   dh<i>=<p|r>,theta_rad,d_m,a_m,alpha_rad        i = 1..4 (p prismatic, r revolute)
+//   limit<i>=min,max                               i = 1..4 (m or rad)
+//   home=d1_m,q2_rad,q3_rad,q4_rad
+//   steps_per_unit=z,j2,j3                         (steps per m; per rad)
+//   coupling=j3_per_j2
+//   servo_wrist=min_deg,max_deg,pulse_min_us,pulse_max_us
+//   servo_gripper=min_deg,max_deg,pulse_min_us,pulse_max_us
+//   endstop_closes_at=z_m,j2_rad,j3_rad
+//   endstop_homing_dir=z,j2,j3                      (+1 / -1, written as integers)
+// Numbers are written as C's printf("%.9g") writes them, independent of the locale ("0.067",
+// "-1.83259571", "205560", "1e-05"); -0 is written "0".
+std::string description_identity(const RobotModel& model);
+
+// The 32-bit FNV-1a hash (offset basis 2166136261, prime 16777619) of `bytes`.
+std::uint32_t fnv1a32(std::string_view bytes);
+
+// fnv1a32(description_identity(model)) as 8 lower-case hex digits ("c6e454cc"): the robot
+// description's hash that the hello carries.
+std::string description_hash(const RobotModel& model);
 
 }  // namespace scaratwin

@@ -31,19 +31,25 @@ using ErrorCode = core::ErrorCode;
 // HI request (hub -> simulator, host -> device). On the simulator link a hello may say who
 // is connecting: `role` "control" (the default when empty) or "observe" (queries only), and
 // the simulator's access token when it asks for one (docs/security.md). Both are empty on
-// the serial link.
+// the serial link. `description`: the hash of the robot description the hub runs on (8
+// lower-case hex digits, kinematics/robot_model.hpp description_hash()), or empty (a v1
+// hello); a peer answers a hello that carries one with its own (docs/protocol.md section 11).
 struct Hello {
   std::int32_t version = kProtocolVersion;
-  std::string role;   // "", "control" or "observe"
-  std::string token;  // "" or [A-Za-z0-9_.-]{1,32}
+  std::string role;         // "", "control" or "observe"
+  std::string token;        // "" or [A-Za-z0-9_.-]{1,32}
+  std::string description;  // "" or 8 lower-case hex digits
 
   friend bool operator==(const Hello&, const Hello&) = default;
 };
 // HI reply (simulator -> hub, device -> host).
+// `description`: the hash of the robot description the peer was built for or started with,
+// sent only in answer to a hello that carried the hub's; empty from a v1 peer.
 struct PeerHello {
   std::int32_t version = kProtocolVersion;
   std::string device;            // [A-Za-z0-9_.-]{1,32}, e.g. "scara-uno", "scaratwin-sim"
   std::string software_version;  // same alphabet, e.g. "0.1.0"
+  std::string description;       // "" or 8 lower-case hex digits
 
   friend bool operator==(const PeerHello&, const PeerHello&) = default;
 };
