@@ -16,6 +16,7 @@
 
 #include "scaratwin/config/data_paths.hpp"
 #include "scaratwin/core/units.hpp"
+#include "toml_text.hpp"
 
 namespace scaratwin {
 namespace {
@@ -148,11 +149,7 @@ class TableReader {
   std::string name(const char* key) const {
     return path_.empty() ? std::string(key) : path_ + "." + key;
   }
-  static std::string type_of(const toml::node& n) {
-    std::ostringstream s;
-    s << n.type();
-    return s.str();
-  }
+  static std::string type_of(const toml::node& n) { return config_detail::type_of(n); }
 
   const toml::table* table_;
   std::string path_;
@@ -213,15 +210,16 @@ void read_physical(TableReader& top, PhysicalModel& p) {
         "supply_v, holding_torque_nm, rated_current_a, current_a, resistance_ohm, "
         "inductance_mh, rotor_inertia_gcm2, detent_torque_nm, friction_nm, viscous_nms, "
         "full_steps_per_rev, microsteps, stiffness, damping");
-    const double positive[] = {p.drive.supply_v, m.holding_torque_nm, m.rated_current_a,
-                               m.current_a, m.resistance_ohm, m.inductance_h,
-                               m.rotor_inertia_kgm2, p.drive.stiffness[0],
-                               p.drive.stiffness[1], p.drive.stiffness[2]};
+    const double positive[] = {p.drive.supply_v,     m.holding_torque_nm,  m.rated_current_a,
+                               m.current_a,          m.resistance_ohm,     m.inductance_h,
+                               m.rotor_inertia_kgm2, p.drive.stiffness[0], p.drive.stiffness[1],
+                               p.drive.stiffness[2]};
     for (double v : positive) {
       if (!(v > 0.0)) {
-        d.fail(fmt::format("drive: {} is not positive: supply, torque, currents, resistance, "
-                           "inductance, inertia and stiffness must be > 0",
-                           v));
+        d.fail(
+            fmt::format("drive: {} is not positive: supply, torque, currents, resistance, "
+                        "inductance, inertia and stiffness must be > 0",
+                        v));
         break;
       }
     }
@@ -313,9 +311,9 @@ void read_calibration(TableReader& top, RobotModel& m) {
   // what the links gained, so that the nominal description stays known
   for (int i = 0; i < kNumJoints; ++i) j.a_delta_m[i] += m.dh[i].a_m - nominal_a_m[i];
   // the camera's adjustments are recorded for the reader; the webcam table below is absolute
-  static constexpr const char* kCamera[] = {"camera_dx_mm", "camera_dy_mm", "camera_dz_mm",
-                                            "camera_rx_deg", "camera_ry_deg", "camera_rz_deg",
-                                            "camera_focal_percent", "camera_k1"};
+  static constexpr const char* kCamera[] = {
+      "camera_dx_mm",  "camera_dy_mm",  "camera_dz_mm",         "camera_rx_deg",
+      "camera_ry_deg", "camera_rz_deg", "camera_focal_percent", "camera_k1"};
   for (const char* k : kCamera) {
     std::array<double, 2> v{};
     id.numbers(k, v);
@@ -336,7 +334,8 @@ void read_calibration(TableReader& top, RobotModel& m) {
     w.integer("width_px", cam.width_px, 16, 8192);
     w.integer("height_px", cam.height_px, 16, 8192);
     w.reject_unknown("pos_m, r_bc, f_px, cx_px, cy_px, k1, k2, width_px, height_px");
-    if (!(cam.f_px > 0.0)) w.fail(fmt::format("calibration.webcam.f_px = {}: must be > 0", cam.f_px));
+    if (!(cam.f_px > 0.0))
+      w.fail(fmt::format("calibration.webcam.f_px = {}: must be > 0", cam.f_px));
   }
   c.reject_unknown(
       "date, robot, pattern_points, marker_views, marker_points, outliers, touch_offs, pixel_rms, "
@@ -346,13 +345,9 @@ void read_calibration(TableReader& top, RobotModel& m) {
 }  // namespace
 
 Result<RobotModel> parse_robot_config(std::string_view toml_text, std::string_view source) {
-  toml::table root;
-  try {
-    root = toml::parse(toml_text, std::string(source));
-  } catch (const toml::parse_error& e) {
-    return Error{ConfigError::kInvalid, fmt::format("{}:{}:{}: {}", source, e.source().begin.line,
-                                                    e.source().begin.column, e.description())};
-  }
+  auto parsed = config_detail::parse_toml(toml_text, source);
+  if (!parsed) return parsed.error();
+  const toml::table& root = *parsed;
   std::string error;
   TableReader top(&root, "", &error);
   // an overlay (written by `scaratwin calibrate`): the base description it refines, then what

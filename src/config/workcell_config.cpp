@@ -13,6 +13,7 @@
 
 #include "scaratwin/config/robot_config.hpp"
 #include "scaratwin/core/units.hpp"
+#include "toml_text.hpp"
 
 namespace scaratwin {
 namespace {
@@ -23,22 +24,14 @@ Error invalid(std::string_view source, const std::string& message) {
   return Error{ConfigError::kInvalid, fmt::format("{}: {}", source, message)};
 }
 
-std::string type_of(const toml::node& n) {
-  std::ostringstream s;
-  s << n.type();
-  return s.str();
-}
+using config_detail::type_of;
 
 }  // namespace
 
 Result<Workcell> parse_workcell_config(std::string_view toml_text, std::string_view source) {
-  toml::table root;
-  try {
-    root = toml::parse(toml_text, std::string(source));
-  } catch (const toml::parse_error& e) {
-    return Error{ConfigError::kInvalid, fmt::format("{}:{}:{}: {}", source, e.source().begin.line,
-                                                    e.source().begin.column, e.description())};
-  }
+  auto parsed = config_detail::parse_toml(toml_text, source);
+  if (!parsed) return parsed.error();
+  const toml::table& root = *parsed;
   for (const auto& [k, v] : root) {
     if (k.str() != "robot") {
       return invalid(source, fmt::format("{}: unknown key (valid keys: robot, an array of "
