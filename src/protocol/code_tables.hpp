@@ -36,29 +36,29 @@ const CodeSpec kSerialDeviceToHostCodes[] = {
 };
 
 const CodeSpec kTcpHubToSimCodes[] = {
-    make_code('H', 'I', 1, "ittt"),    // proto_version [role] [token] [description]
-    make_code('P', 'I', 0, "i"),       // [token]
-    make_code('J', 'D', 6, "iudddd"),  // seq t_us d1_mm q2_deg q3_deg q4_deg
-    make_code('T', 'J', 6, "iudddd"),  // seq t_us d1_mm q2_deg q3_deg q4_deg
-    make_code('M', 'D', 1, "t"),       // mode
-    make_code('G', 'R', 1, "i"),       // state
-    make_code('C', 'S', 0, "ii"),      // [width_px height_px]
-    make_code('S', 'C', 3, "tdd"),     // color x_mm y_mm
-    make_code('R', 'S', 0, ""),        //
-    make_code('O', 'P', 0, "i"),       // [id]
-    make_code('Q', 'S', 0, ""),        //
-    make_code('S', 'P', 0, ""),        //
-    make_code('T', 'W', 1, "t"),       // phase
+    make_code('H', 'I', 1, "ittt"),     // proto_version [role] [token] [description]
+    make_code('P', 'I', 0, "i"),        // [token]
+    make_code('J', 'D', 6, "iuddddi"),  // seq t_us d1_mm q2_deg q3_deg q4_deg [robot]
+    make_code('T', 'J', 6, "iuddddi"),  // seq t_us d1_mm q2_deg q3_deg q4_deg [robot]
+    make_code('M', 'D', 1, "ti"),       // mode [robot]
+    make_code('G', 'R', 1, "ii"),       // state [robot]
+    make_code('C', 'S', 0, "ii"),       // [width_px height_px]
+    make_code('S', 'C', 3, "tdd"),      // color x_mm y_mm
+    make_code('R', 'S', 0, ""),         //
+    make_code('O', 'P', 0, "i"),        // [id]
+    make_code('Q', 'S', 0, "i"),        // [robot]
+    make_code('S', 'P', 0, "i"),        // [robot]
+    make_code('T', 'W', 1, "ti"),       // phase [robot]
 };
 
 const CodeSpec kTcpSimToHubCodes[] = {
     make_code('H', 'I', 3, "ittt"),                // proto_version device version [description]
-    make_code('J', 'A', 2, "iu"),                  // seq t_apply_us
-    make_code('G', 'R', 2, "ii"),                  // state held_id
+    make_code('J', 'A', 2, "iui"),                 // seq t_apply_us [robot]
+    make_code('G', 'R', 2, "iii"),                 // state held_id [robot]
     make_code('I', 'M', 1, "i", kCodeHasPayload),  // nbytes, then the PNG bytes
     make_code('O', 'P', 6, "itdddd"),              // id color x_mm y_mm z_mm yaw_deg
-    make_code('S', 'T', 9, "iuddddiit"),           // seq t_us d1 q2 q3 q4 grip held_id mode
-    make_code('J', 'W', 2, "id"),                  // joint value
+    make_code('S', 'T', 9, "iuddddiiti"),          // seq t_us d1..q4 grip held_id mode [robot]
+    make_code('J', 'W', 2, "idi"),                 // joint value [robot]
     make_code('A', 'K', 1, "ti"),                  // code [value]
     make_code('E', 'R', 1, "ii"),                  // err_code [detail]
 };

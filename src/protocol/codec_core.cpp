@@ -26,7 +26,7 @@ const char* error_name(uint8_t code) {
       "none",       "line_too_long", "bad_character",     "unknown_code", "wrong_field_count",
       "bad_number", "queue_full",    "not_homed",         "joint_limit",  "busy",
       "sequence",   "bad_value",     "payload_too_large", "version",      "halted",
-      "internal",   "timeout",       "disconnected",      "access"};
+      "internal",   "timeout",       "disconnected",      "access",       "no_robot"};
   return code <= kErrMaxCode ? kNames[code] : "unknown";
 }
 

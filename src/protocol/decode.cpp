@@ -58,6 +58,14 @@ std::optional<std::int32_t> optional_field(const Packet& p, std::uint8_t i) {
   return std::nullopt;
 }
 
+// The robot index in optional field i of a robot-addressed TCP packet: 0 when the packet has
+// none (a v1 packet addresses robot 0).
+std::int32_t robot_of(const Packet& p, std::uint8_t i, std::optional<DecodeError>* error) {
+  if (i >= p.field_count) return 0;
+  if (!*error) in_range(p, i, 0, core::kMaxRobotIndex, error);
+  return p.i32(i);
+}
+
 std::uint16_t seq_of(const Packet& p, std::uint8_t i) {
   return static_cast<std::uint16_t>(p.i32(i));
 }
@@ -256,26 +264,33 @@ Decoded<TcpToSim> to_message(const Packet& p, TcpToSim*) {
     case code_id('J', 'D'):
     case code_id('T', 'J'): {
       in_range(p, 0, 0, 65535, &error);
+      const std::int32_t robot = robot_of(p, 6, &error);
       if (error) return std::move(*error);
       if (p.code == code_id('J', 'D'))
-        return make<M>(JointData{seq_of(p, 0), p.u32(1), joints_of(p, 2)});
-      return make<M>(JointTargets{seq_of(p, 0), p.u32(1), joints_of(p, 2)});
+        return make<M>(JointData{seq_of(p, 0), p.u32(1), joints_of(p, 2), robot});
+      return make<M>(JointTargets{seq_of(p, 0), p.u32(1), joints_of(p, 2), robot});
     }
     case code_id('M', 'D'): {
       SetMode m;
       if (!parse_mode(p, 0, &m.mode)) return bad_value(p, 0, "mirror, simulate");
-      return make<M>(m);
+      m.robot = robot_of(p, 1, &error);
+      return checked<M>(error, m);
     }
     case code_id('T', 'W'): {
       for (TwinPhase t : {TwinPhase::kNone, TwinPhase::kMirror, TwinPhase::kControl,
                           TwinPhase::kPrediction, TwinPhase::kHoming}) {
-        if (p.text_equals(0, phase_name(t))) return make<M>(SetTwinPhase{t});
+        if (p.text_equals(0, phase_name(t))) {
+          const std::int32_t robot = robot_of(p, 1, &error);
+          return checked<M>(error, SetTwinPhase{t, robot});
+        }
       }
       return bad_value(p, 0, "none, mirror, control, prediction, homing");
     }
-    case code_id('G', 'R'):
+    case code_id('G', 'R'): {
       in_range(p, 0, 0, 1, &error);
-      return checked<M>(error, Grasp{p.i32(0) == 1});
+      const std::int32_t robot = robot_of(p, 1, &error);
+      return checked<M>(error, Grasp{p.i32(0) == 1, robot});
+    }
     case code_id('C', 'S'):
       if (p.field_count == 1) {
         return DecodeError{core::kErrWrongFieldCount, 1,
@@ -295,10 +310,14 @@ Decoded<TcpToSim> to_message(const Packet& p, TcpToSim*) {
       return make<M>(ResetScene{});
     case code_id('O', 'P'):
       return make<M>(QueryObjects{optional_field(p, 0)});
-    case code_id('Q', 'S'):
-      return make<M>(QueryState{});
-    case code_id('S', 'P'):
-      return make<M>(Stop{});
+    case code_id('Q', 'S'): {
+      const std::int32_t robot = robot_of(p, 0, &error);
+      return checked<M>(error, QueryState{robot});
+    }
+    case code_id('S', 'P'): {
+      const std::int32_t robot = robot_of(p, 0, &error);
+      return checked<M>(error, Stop{robot});
+    }
     default:
       break;
   }
@@ -311,12 +330,16 @@ Decoded<TcpFromSim> to_message(const Packet& p, TcpFromSim*) {
   switch (p.code) {
     case code_id('H', 'I'):
       return peer_hello<M>(p);
-    case code_id('J', 'A'):
+    case code_id('J', 'A'): {
       in_range(p, 0, 0, 65535, &error);
-      return checked<M>(error, JointApplied{seq_of(p, 0), p.u32(1)});
-    case code_id('G', 'R'):
+      const std::int32_t robot = robot_of(p, 2, &error);
+      return checked<M>(error, JointApplied{seq_of(p, 0), p.u32(1), robot});
+    }
+    case code_id('G', 'R'): {
       in_range(p, 0, 0, 1, &error) && in_range(p, 1, -1, 0x7fffffff, &error);
-      return checked<M>(error, GripperState{p.i32(0) == 1, p.i32(1)});
+      const std::int32_t robot = robot_of(p, 2, &error);
+      return checked<M>(error, GripperState{p.i32(0) == 1, p.i32(1), robot});
+    }
     case code_id('O', 'P'): {
       ObjectPose o;
       o.id = p.i32(0);
@@ -337,12 +360,14 @@ Decoded<TcpFromSim> to_message(const Packet& p, TcpFromSim*) {
       s.grip_closed = p.i32(6) == 1;
       s.held_id = p.i32(7);
       if (!error && !parse_mode(p, 8, &s.mode)) return bad_value(p, 8, "mirror, simulate");
+      s.robot = robot_of(p, 9, &error);
       return checked<M>(error, s);
     }
     case code_id('J', 'W'): {
       in_range(p, 0, 1, 4, &error);
       const double value = p.i32(0) == 1 ? wire::mm_field_to_m(p, 1) : wire::deg_field_to_rad(p, 1);
-      return checked<M>(error, JointWarning{p.i32(0), value});
+      const std::int32_t robot = robot_of(p, 2, &error);
+      return checked<M>(error, JointWarning{p.i32(0), value, robot});
     }
     case code_id('A', 'K'):
     case code_id('E', 'R'):

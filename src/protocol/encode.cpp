@@ -36,6 +36,17 @@ class Writer {
     if (!ok) fail("description", "'" + s + "'", "8 lower-case hex digits");
     encoder_.add_text(s.data(), s.size());
   }
+  // the robot index of a robot-addressed packet: only on TCP, and only when not 0 (a packet
+  // without one addresses robot 0, so robot 0's packets are version 1's)
+  void robot(std::int32_t index) {
+    if (index == 0) return;
+    if (!tcp_) {
+      fail("robot", std::to_string(index), "0 (the serial link reaches one robot)");
+    } else if (index < 0 || index > core::kMaxRobotIndex) {
+      fail("robot", std::to_string(index), "0..255");
+    }
+    encoder_.add_i32(index);
+  }
   void opt(const std::optional<std::int32_t>& v) {
     if (v) i32(*v);
   }
@@ -123,8 +134,14 @@ void put(Writer& w, const Ping& m) {
   w.begin('P', 'I');
   w.opt(m.token);
 }
-void put(Writer& w, const QueryState&) { w.begin('Q', 'S'); }
-void put(Writer& w, const Stop&) { w.begin('S', 'P'); }
+void put(Writer& w, const QueryState& m) {
+  w.begin('Q', 'S');
+  w.robot(m.robot);
+}
+void put(Writer& w, const Stop& m) {
+  w.begin('S', 'P');
+  w.robot(m.robot);
+}
 void put(Writer& w, const Ack& m) {
   w.begin('A', 'K');
   w.text(m.code, "code");
@@ -194,24 +211,29 @@ void put(Writer& w, const JointData& m) {
   w.i32(m.seq);
   w.u32(m.t_us);
   w.joints(m.q);
+  w.robot(m.robot);
 }
 void put(Writer& w, const JointTargets& m) {
   w.begin('T', 'J');
   w.i32(m.seq);
   w.u32(m.t_us);
   w.joints(m.q);
+  w.robot(m.robot);
 }
 void put(Writer& w, const SetMode& m) {
   w.begin('M', 'D');
   w.text(mode_name(m.mode), "mode");
+  w.robot(m.robot);
 }
 void put(Writer& w, const SetTwinPhase& m) {
   w.begin('T', 'W');
   w.text(phase_name(m.phase), "phase");
+  w.robot(m.robot);
 }
 void put(Writer& w, const Grasp& m) {
   w.begin('G', 'R');
   w.i32(m.close ? 1 : 0);
+  w.robot(m.robot);
 }
 void put(Writer& w, const CameraShoot& m) {
   w.begin('C', 'S');
@@ -235,11 +257,13 @@ void put(Writer& w, const JointApplied& m) {
   w.begin('J', 'A');
   w.i32(m.seq);
   w.u32(m.t_apply_us);
+  w.robot(m.robot);
 }
 void put(Writer& w, const GripperState& m) {
   w.begin('G', 'R');
   w.i32(m.closed ? 1 : 0);
   w.i32(m.held_id);
+  w.robot(m.robot);
 }
 void put(Writer& w, const Image& m) {
   w.begin('I', 'M');
@@ -262,6 +286,7 @@ void put(Writer& w, const SimState& m) {
   w.i32(m.grip_closed ? 1 : 0);
   w.i32(m.held_id);
   w.text(mode_name(m.mode), "mode");
+  w.robot(m.robot);
 }
 void put(Writer& w, const JointWarning& m) {
   w.begin('J', 'W');
@@ -271,6 +296,7 @@ void put(Writer& w, const JointWarning& m) {
   } else {
     w.rad_as_deg(m.value, "value (rad)");
   }
+  w.robot(m.robot);
 }
 
 template <typename Direction>

@@ -28,6 +28,8 @@ constexpr const char* kSoftwareVersion = "0.1.0";
 constexpr std::int32_t kAccessToken = 1;     // token missing or wrong
 constexpr std::int32_t kAccessInUse = 2;     // another client controls the simulator
 constexpr std::int32_t kAccessObserver = 3;  // an observer may only query
+// Robots the simulator has: one, index 0 (ER,19's detail)
+constexpr std::int32_t kRobots = 1;
 
 std::uint32_t wrap_us(double seconds) {
   return static_cast<std::uint32_t>(static_cast<std::uint64_t>(std::llround(seconds * 1e6)));
@@ -306,7 +308,7 @@ struct SimServer::Impl {
       } else if (std::holds_alternative<proto::Ping>(msg) ||
                  std::holds_alternative<proto::QueryState>(msg) ||
                  std::holds_alternative<proto::QueryObjects>(msg)) {
-        std::visit([&](const auto& q) { on(out, q); }, msg);
+        std::visit([&](const auto& q) { dispatch(out, q); }, msg);
       } else {
         error(out, core::kErrAccess, kAccessObserver);
       }
@@ -374,6 +376,19 @@ struct SimServer::Impl {
     return false;
   }
 
+  // A robot-addressed packet (protocol v2) for a robot the simulator does not have is
+  // refused with ER,19,<robots it has>, and nothing of it is applied; robot 0 is the one.
+  template <typename M>
+  void dispatch(std::string& out, const M& m) {
+    if constexpr (requires { m.robot; }) {
+      if (m.robot != 0) {
+        error(out, core::kErrNoRobot, kRobots);
+        return;
+      }
+    }
+    on(out, m);
+  }
+
   std::string handle(const std::string& line) {
     std::lock_guard lock(handle_mutex);
     ++packets;
@@ -387,7 +402,7 @@ struct SimServer::Impl {
         error(out, e->code, e->detail);
         return;
       }
-      std::visit([&](const auto& m) { on(out, m); }, std::get<proto::TcpToSim>(d));
+      std::visit([&](const auto& m) { dispatch(out, m); }, std::get<proto::TcpToSim>(d));
     });
     if (seen == 0) {
       // an incomplete line cannot happen here; keep the one-reply rule anyway

@@ -86,6 +86,8 @@ inline std::vector<TcpToSim> tcp_to_sim_samples() {
       Stop{},
       SetTwinPhase{TwinPhase::kControl},
       SetTwinPhase{TwinPhase::kNone},
+      JointData{18, 5000124, {mm(120), deg(12.5), deg(-30.25), deg(90)}, 1},
+      QueryState{2},
   };
 }
 
@@ -102,6 +104,8 @@ inline std::vector<TcpFromSim> tcp_from_sim_samples() {
       SimState{9, 2000000, {mm(120), deg(1), deg(2), deg(3)}, true, 3, SimMode::kSimulate},
       JointWarning{1, mm(120)},
       JointWarning{3, deg(205)},
+      JointWarning{2, deg(130), 1},
+      JointApplied{19, 5000500, 1},
       Ack{"SC", 3},
       Ack{"RS", std::nullopt},
       ErrorReply{core::kErrBadValue, 0},

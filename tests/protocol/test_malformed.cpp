@@ -41,7 +41,7 @@ TEST(ProtocolMalformed, TcpToSim) {
       {"no final delimiter", "RS\n", core::kErrBadCharacter},
       {"overlong", "JD," + std::string(2000, '9') + "\n", core::kErrLineTooLong},
       {"binary junk", std::string("\x00\xff\xfe\x13\x37junk", 9) + "\n", core::kErrBadCharacter},
-      {"wrong field count", "GR,1,2,\n", core::kErrWrongFieldCount},
+      {"wrong field count", "GR,1,2,3,\n", core::kErrWrongFieldCount},  // state [robot]
       {"too many fields", "RS,1,2,3,4,5,6,7,8,9,10,11,12,13,\n", core::kErrWrongFieldCount},
       {"camera with one size", "CS,320,\n", core::kErrWrongFieldCount},
       {"NaN", "JD,1,2,nan,0,0,0,\n", core::kErrBadNumber},
@@ -126,14 +126,14 @@ TEST(ProtocolMalformed, TruncatedPacketSwallowsOnlyTheLineItJoins) {
 
 TEST(ProtocolMalformed, ErrorMessagesNameTheBadValue) {
   TcpToSimDecoder d;
-  const auto items = d.feed("SC,red,nan,0,\nZZ,\nGR,1,2,\nMD,fly,\n");
+  const auto items = d.feed("SC,red,nan,0,\nZZ,\nGR,1,2,3,\nMD,fly,\n");
   ASSERT_EQ(items.size(), 4u);
   EXPECT_NE(std::get<1>(items[0]).message.find("'nan'"), std::string::npos)
       << std::get<1>(items[0]).message;
   EXPECT_EQ(std::get<1>(items[0]).detail, 1);
   EXPECT_NE(std::get<1>(items[1]).message.find("ZZ"), std::string::npos);
   EXPECT_NE(std::get<1>(items[1]).message.find("JD"), std::string::npos);  // lists valid codes
-  EXPECT_NE(std::get<1>(items[2]).message.find("expects 1"), std::string::npos)
+  EXPECT_NE(std::get<1>(items[2]).message.find("expects 1..2"), std::string::npos)
       << std::get<1>(items[2]).message;
   EXPECT_NE(std::get<1>(items[3]).message.find("mirror, simulate"), std::string::npos);
 }

@@ -171,6 +171,123 @@ TEST(ProtocolHello, ABadDescriptionHashIsBadValueNamingTheField) {
   EXPECT_EQ(bad.error().code, protocol_error_code(core::kErrBadValue));
 }
 
+// Protocol v2's robot index (docs/protocol.md section 11.3): an optional last field of every
+// robot-addressed TCP packet; a packet without one addresses robot 0, and robot 0's packets are
+// written as version 1's.
+using test::deg;
+using test::mm;
+
+TEST(ProtocolRobotIndex, RoundTripsOnEveryRobotAddressedPacket) {
+  const JointVector q{mm(120), deg(12.5), deg(-30.25), deg(90)};
+  const std::vector<TcpToSim> to_sim = {
+      JointData{17, 5000123, q, 3},
+      JointTargets{4, 100, q, 255},
+      SetMode{SimMode::kSimulate, 1},
+      Grasp{true, 2},
+      QueryState{7},
+      Stop{1},
+      SetTwinPhase{TwinPhase::kControl, 9},
+  };
+  const std::vector<std::string> to_sim_text = {"JD,17,5000123,120,12.5,-30.25,90,3,\n",
+                                                "TJ,4,100,120,12.5,-30.25,90,255,\n",
+                                                "MD,simulate,1,\n",
+                                                "GR,1,2,\n",
+                                                "QS,7,\n",
+                                                "SP,1,\n",
+                                                "TW,control,9,\n"};
+  for (std::size_t i = 0; i < to_sim.size(); ++i) {
+    const auto text = encode(to_sim[i]);
+    ASSERT_TRUE(text.ok()) << text.error().message;
+    EXPECT_EQ(*text, to_sim_text[i]);
+    TcpToSimDecoder d;
+    const auto back = d.feed(*text);
+    ASSERT_EQ(back.size(), 1u) << *text;
+    ASSERT_TRUE(std::holds_alternative<TcpToSim>(back[0]))
+        << std::get<DecodeError>(back[0]).message;
+    EXPECT_EQ(std::get<TcpToSim>(back[0]), to_sim[i]) << *text;
+  }
+  SimState st;
+  st.seq = 5;
+  st.q = q;
+  st.robot = 4;
+  const std::vector<TcpFromSim> from_sim = {JointApplied{17, 5000410, 3}, GripperState{true, 3, 1},
+                                            st, JointWarning{2, deg(130), 2}};
+  const std::vector<std::string> from_sim_text = {"JA,17,5000410,3,\n", "GR,1,3,1,\n",
+                                                  "ST,5,0,120,12.5,-30.25,90,0,-1,mirror,4,\n",
+                                                  "JW,2,130,2,\n"};
+  for (std::size_t i = 0; i < from_sim.size(); ++i) {
+    const auto text = encode(from_sim[i]);
+    ASSERT_TRUE(text.ok()) << text.error().message;
+    EXPECT_EQ(*text, from_sim_text[i]);
+    TcpFromSimDecoder d;
+    const auto back = d.feed(*text);
+    ASSERT_EQ(back.size(), 1u) << *text;
+    ASSERT_TRUE(std::holds_alternative<TcpFromSim>(back[0]))
+        << std::get<DecodeError>(back[0]).message;
+    EXPECT_EQ(std::get<TcpFromSim>(back[0]), from_sim[i]) << *text;
+  }
+}
+
+TEST(ProtocolRobotIndex, VersionOnePacketsAddressRobotZero) {
+  TcpToSimDecoder to_sim;
+  const auto got = to_sim.feed(
+      "JD,17,5000123,120,12.5,-30.25,90,\nTJ,3,100,10,0,0,180,\nMD,mirror,\nGR,0,\nQS,\nSP,\n"
+      "TW,none,\nJD,18,5000124,120,12.5,-30.25,90,0,\n");
+  ASSERT_EQ(got.size(), 8u);
+  for (const auto& d : got) {
+    ASSERT_TRUE(std::holds_alternative<TcpToSim>(d)) << std::get<DecodeError>(d).message;
+    std::visit(
+        [](const auto& m) {
+          if constexpr (requires { m.robot; }) {
+            EXPECT_EQ(m.robot, 0);
+          }
+        },
+        std::get<TcpToSim>(d));
+  }
+  TcpFromSimDecoder from_sim;
+  const auto replies =
+      from_sim.feed("JA,17,5000410,\nGR,1,3,\nST,1,2,120,0,0,0,0,-1,mirror,\nJW,1,125,\n");
+  ASSERT_EQ(replies.size(), 4u);
+  for (const auto& d : replies) {
+    ASSERT_TRUE(std::holds_alternative<TcpFromSim>(d)) << std::get<DecodeError>(d).message;
+    std::visit(
+        [](const auto& m) {
+          if constexpr (requires { m.robot; }) {
+            EXPECT_EQ(m.robot, 0);
+          }
+        },
+        std::get<TcpFromSim>(d));
+  }
+  // robot 0 is written as version 1 writes it
+  EXPECT_EQ(*encode(TcpToSim(QueryState{0})), "QS,\n");
+  EXPECT_EQ(*encode(TcpToSim(JointData{17, 5000123, {mm(120), 0, 0, 0}, 0})),
+            "JD,17,5000123,120,0,0,0,\n");
+}
+
+TEST(ProtocolRobotIndex, AnIndexOutOfRangeIsBadValueAndSerialHasNone) {
+  TcpToSimDecoder to_sim;
+  const auto got = to_sim.feed("QS,256,\nSP,-1,\nJD,1,2,120,0,0,0,1.5,\nGR,1,70000,\n");
+  ASSERT_EQ(got.size(), 4u);
+  const std::vector<std::pair<std::int32_t, std::int32_t>> want = {{core::kErrBadValue, 0},
+                                                                   {core::kErrBadValue, 0},
+                                                                   {core::kErrBadNumber, 6},
+                                                                   {core::kErrBadValue, 1}};
+  for (std::size_t i = 0; i < got.size(); ++i) {
+    ASSERT_TRUE(std::holds_alternative<DecodeError>(got[i])) << i;
+    EXPECT_EQ(std::get<DecodeError>(got[i]).code, want[i].first) << i;
+    EXPECT_EQ(std::get<DecodeError>(got[i]).detail, want[i].second) << i;
+  }
+  const auto serial = encode(SerialToDevice(QueryState{1}));
+  ASSERT_FALSE(serial.ok());
+  EXPECT_NE(serial.error().message.find("robot"), std::string::npos) << serial.error().message;
+  EXPECT_FALSE(encode(TcpToSim(Stop{256})).ok());
+  SerialToDeviceDecoder to_device;
+  const auto qs = to_device.feed("QS=1=\n");
+  ASSERT_EQ(qs.size(), 1u);
+  ASSERT_TRUE(std::holds_alternative<DecodeError>(qs[0]));
+  EXPECT_EQ(std::get<DecodeError>(qs[0]).code, core::kErrWrongFieldCount);
+}
+
 TEST(ProtocolDecode, ConvertsToSi) {
   TcpToSimDecoder d;
   const auto items = d.feed("JD,17,5000123,120,12.5,-30.25,90,\nSC,blue,-0.5,187,\n");

@@ -251,6 +251,24 @@ TEST_F(SimServerTest, AHelloWithADescriptionHashIsAnsweredWithTheSimulatorsOwn) 
   EXPECT_EQ(server_->handle_line("HI,1,control,-,0BADF00D,"), "ER,11,3,\n");
 }
 
+// Protocol v2's robot index (docs/protocol.md section 11.3): the simulator has one robot,
+// index 0 (or none given); a packet for any other robot is ER,19,1, (no such robot; it has 1)
+// and nothing of it is applied.
+TEST_F(SimServerTest, APacketForARobotTheSimulatorDoesNotHaveIsRefused) {
+  EXPECT_EQ(server_->handle_line("JD,4,0,80,10,0,0,0,").rfind("JA,4,", 0), 0u);
+  const std::string before = server_->handle_line("QS,");
+  ASSERT_EQ(before.rfind("ST,", 0), 0u) << before;
+  EXPECT_NE(before.find(",80,10,0,0,"), std::string::npos) << before;
+  for (const char* line : {"JD,5,0,90,20,0,0,1,", "TJ,5,0,90,20,0,0,2,", "MD,simulate,1,",
+                           "GR,1,1,", "QS,1,", "SP,3,", "TW,control,1,"}) {
+    EXPECT_EQ(server_->handle_line(line), "ER,19,1,\n") << line;
+  }
+  const std::string after = server_->handle_line("QS,0,");
+  ASSERT_EQ(after.rfind("ST,", 0), 0u) << after;
+  EXPECT_NE(after.find(",80,10,0,0,0,-1,mirror,"), std::string::npos) << "nothing applied\n"
+                                                                      << after;
+}
+
 TEST_F(SimServerTest, SimulateModeFollowsTargetsAndGrasps) {
   world_->start();
   ASSERT_TRUE(client_->send("MD,simulate,\nSC,red,150,0,\nJD,1,0,80,0,0,0,\n").ok());

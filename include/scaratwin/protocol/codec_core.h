@@ -57,8 +57,11 @@ enum ErrorCode : uint8_t {
   kErrTimeout = 16,       // host-side only, never sent
   kErrDisconnected = 17,  // host-side only, never sent
   kErrAccess = 18,        // simulator link: connection refused (token, controller, observer)
+  kErrNoRobot = 19,       // simulator link: the robot index names no robot (protocol v2)
 };
-const uint8_t kErrMaxCode = 18;
+const uint8_t kErrMaxCode = 19;
+// Largest robot index of a robot-addressed TCP packet (protocol v2, docs/protocol.md 11.3).
+const int32_t kMaxRobotIndex = 255;
 
 // Short snake_case name of an error code ("line_too_long"), "unknown" for others.
 const char* error_name(uint8_t code);

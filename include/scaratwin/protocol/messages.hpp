@@ -23,6 +23,8 @@
 namespace scaratwin::protocol {
 
 using core::kErrAccess;
+using core::kErrNoRobot;
+using core::kMaxRobotIndex;
 using core::kProtocolVersion;
 using ErrorCode = core::ErrorCode;
 
@@ -59,12 +61,15 @@ struct Ping {
 
   friend bool operator==(const Ping&, const Ping&) = default;
 };
-// QS: query one state report (DeviceState on serial, SimState on TCP).
+// QS: query one state report (DeviceState on serial, SimState on TCP). `robot` on TCP only.
 struct QueryState {
+  std::int32_t robot = 0;  // robot index (protocol v2, docs/protocol.md section 11.3)
   friend bool operator==(const QueryState&, const QueryState&) = default;
 };
-// SP: stop. Serial: clear the queue and decelerate; TCP: hold the current joints.
+// SP: stop. Serial: clear the queue and decelerate; TCP: hold the current joints. `robot` on
+// TCP only.
 struct Stop {
+  std::int32_t robot = 0;  // robot index (protocol v2, docs/protocol.md section 11.3)
   friend bool operator==(const Stop&, const Stop&) = default;
 };
 // AK: the request with `code` (two upper-case letters) was done; `value` per code.
@@ -192,6 +197,7 @@ struct JointData {
   std::uint16_t seq = 0;   // the device's ST seq when mirroring
   std::uint32_t t_us = 0;  // sample time in the hub's clock, wraps at 2^32
   JointVector q{};
+  std::int32_t robot = 0;  // robot index (protocol v2, docs/protocol.md section 11.3)
 
   friend bool operator==(const JointData&, const JointData&) = default;
 };
@@ -200,6 +206,7 @@ struct JointTargets {
   std::uint16_t seq = 0;
   std::uint32_t t_us = 0;
   JointVector q{};
+  std::int32_t robot = 0;  // robot index (protocol v2, docs/protocol.md section 11.3)
 
   friend bool operator==(const JointTargets&, const JointTargets&) = default;
 };
@@ -207,6 +214,7 @@ enum class SimMode { kMirror, kSimulate };
 // MD: switch the simulator's mode.
 struct SetMode {
   SimMode mode = SimMode::kMirror;
+  std::int32_t robot = 0;  // robot index (protocol v2, docs/protocol.md section 11.3)
 
   friend bool operator==(const SetMode&, const SetMode&) = default;
 };
@@ -218,12 +226,14 @@ enum class TwinPhase { kNone, kMirror, kControl, kPrediction, kHoming };
 // TW: what the twin is doing, for the simulator's browser UI.
 struct SetTwinPhase {
   TwinPhase phase = TwinPhase::kNone;
+  std::int32_t robot = 0;  // robot index (protocol v2, docs/protocol.md section 11.3)
 
   friend bool operator==(const SetTwinPhase&, const SetTwinPhase&) = default;
 };
 // GR on TCP: grasp (true) or release (false).
 struct Grasp {
   bool close = false;
+  std::int32_t robot = 0;  // robot index (protocol v2, docs/protocol.md section 11.3)
 
   friend bool operator==(const Grasp&, const Grasp&) = default;
 };
@@ -259,6 +269,7 @@ struct QueryObjects {
 struct JointApplied {
   std::uint16_t seq = 0;
   std::uint32_t t_apply_us = 0;
+  std::int32_t robot = 0;  // robot index (protocol v2, docs/protocol.md section 11.3)
 
   friend bool operator==(const JointApplied&, const JointApplied&) = default;
 };
@@ -266,6 +277,7 @@ struct JointApplied {
 struct GripperState {
   bool closed = false;
   std::int32_t held_id = -1;
+  std::int32_t robot = 0;  // robot index (protocol v2, docs/protocol.md section 11.3)
 
   friend bool operator==(const GripperState&, const GripperState&) = default;
 };
@@ -294,6 +306,7 @@ struct SimState {
   bool grip_closed = false;
   std::int32_t held_id = -1;
   SimMode mode = SimMode::kMirror;
+  std::int32_t robot = 0;  // robot index (protocol v2, docs/protocol.md section 11.3)
 
   friend bool operator==(const SimState&, const SimState&) = default;
 };
@@ -301,6 +314,7 @@ struct SimState {
 struct JointWarning {
   std::int32_t joint = 1;
   double value = 0.0;
+  std::int32_t robot = 0;  // robot index (protocol v2, docs/protocol.md section 11.3)
 
   friend bool operator==(const JointWarning&, const JointWarning&) = default;
 };
