@@ -60,8 +60,8 @@ volatile bool g_rt_resume = false;  // set by '~'
 // interrupt), so that a tick that confirms the stop before the main loop next looks at the
 // real-time flags cannot leave the confirmation unsent
 volatile bool g_stop_pending = false;
-bool g_baud_pending = false;        // CF 11 changed the rate: switch once its AK has left
-uint32_t g_baud_idle_us = 0;        // when the transmit ring was first seen empty
+bool g_baud_pending = false;  // CF 11 changed the rate: switch once its AK has left
+uint32_t g_baud_idle_us = 0;  // when the transmit ring was first seen empty
 
 struct Trajectory {
   bool active;

@@ -301,23 +301,23 @@ void Hub::on_sim_link(tr::LinkState state) {
     // when it asks for one). The simulator counts as back once it answers: a hung one accepts
     // connections in its kernel and never answers (the heartbeat drops those again).
     const std::string description = description_hash(model_);
-    (void)sim_->post(sim_hello(options_, description), [this, description](
-                                                           Result<tr::SimChannel::Reply>&& r) {
-      const pr::PeerHello* peer = r ? std::get_if<pr::PeerHello>(&r->last()) : nullptr;
-      Status same = peer != nullptr
-                        ? check_description(*peer, "the simulator", description, options_,
-                                            "start both with the same --config")
-                        : Status{Ok{}};
-      if (!same) {
-        // a simulator restarted with another description: not back (nothing is sent to it)
-        std::fprintf(stderr, "scaratwin: %s\n", same.error().message.c_str());
-      } else if (r || refused_described_hello(r.error())) {
-        on_sim_answered();
-      } else if (r.error().code == pr::kErrAccess) {
-        std::fprintf(stderr, "scaratwin: the simulator refused the hub: %s\n",
-                     access_refusal(r.error().message, options_).c_str());
-      }
-    });
+    (void)sim_->post(
+        sim_hello(options_, description), [this, description](Result<tr::SimChannel::Reply>&& r) {
+          const pr::PeerHello* peer = r ? std::get_if<pr::PeerHello>(&r->last()) : nullptr;
+          Status same = peer != nullptr
+                            ? check_description(*peer, "the simulator", description, options_,
+                                                "start both with the same --config")
+                            : Status{Ok{}};
+          if (!same) {
+            // a simulator restarted with another description: not back (nothing is sent to it)
+            std::fprintf(stderr, "scaratwin: %s\n", same.error().message.c_str());
+          } else if (r || refused_described_hello(r.error())) {
+            on_sim_answered();
+          } else if (r.error().code == pr::kErrAccess) {
+            std::fprintf(stderr, "scaratwin: the simulator refused the hub: %s\n",
+                         access_refusal(r.error().message, options_).c_str());
+          }
+        });
     return;
   }
   // a hung simulator's connection was ended by the heartbeat: say so
@@ -868,7 +868,8 @@ Status Hub::home(double timeout_s) {
 // calibrated joint map that is a little elsewhere, even beyond a soft limit (home lies on the
 // limits of d1 and q4): a calibrated switch 1 mm low reads d1 121 mm for a 120 mm limit, and
 // every plan from there would be refused. A short move brings the robot to home, kept one motor
-// quantum inside each limit. An uncalibrated robot is at home already and does not move.
+// quantum inside each limit and within the wrist servo's reach. The firmware's homing leaves the
+// wrist where it was, so an uncalibrated robot moves only its wrist, and only when it is away.
 Status Hub::settle_at_home() {
   auto now = fresh_physical(2.0);
   if (!now) return now.error();
