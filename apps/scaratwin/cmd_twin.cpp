@@ -18,9 +18,11 @@
 #include "commands.hpp"
 #include "hub_session.hpp"
 #include "scaratwin/config/robot_config.hpp"
+#include "scaratwin/config/workcell_config.hpp"
 #include "scaratwin/hub/hub.hpp"
 #include "scaratwin/hub/process.hpp"
 #include "scaratwin/hub/runner.hpp"
+#include "scaratwin/kinematics/workcell.hpp"
 
 namespace scaratwin::cli {
 namespace {
@@ -94,13 +96,74 @@ void add_link_options(CLI::App& cmd, LinkArgs& l) {
                  "default: $SCARATWIN_TOKEN");
   cmd.add_option("--db", l.db, "twin database to record into")->capture_default_str();
   cmd.add_flag("--no-db", l.no_db, "record nothing");
+  cmd.add_option("--workcell", l.workcell,
+                 "a workcell file: several robots around one scene (docs/workcell.md); "
+                 "default: the one robot of --config");
+  cmd.add_option("--robot", l.robot,
+                 "which of the workcell's robots this is (its name); default: the only one");
 }
+
+namespace {
+
+// The robot the command drives: its instance in the workcell (--workcell, or the one robot of
+// --config) and its index there, which the packets to the simulator carry (protocol v2).
+struct ChosenRobot {
+  RobotInstance instance;
+  int index = 0;
+};
+
+Result<ChosenRobot> choose_robot(const CommonOptions& common, const LinkArgs& l) {
+  Workcell cell;
+  if (!l.workcell.empty()) {
+    if (!common.config_path.empty()) {
+      return Error{error_code(ConfigError::kInvalid),
+                   "--config and --workcell: give one (the workcell file names each robot's "
+                   "description)"};
+    }
+    auto w = load_workcell_config(l.workcell);
+    if (!w) return w.error();
+    cell = std::move(*w);
+  } else {
+    auto model = load_model(common);
+    if (!model) return Error{error_code(ConfigError::kInvalid), ""};  // load_model said why
+    cell = single_robot_workcell(*model);
+    cell.robots[0].description_file =
+        common.config_path.empty() ? default_robot_config_path().string() : common.config_path;
+  }
+  int index = 0;
+  if (!l.robot.empty()) {
+    auto k = robot_index(cell, l.robot);
+    if (!k) return k.error();
+    index = *k;
+  } else if (cell.robots.size() > 1) {
+    std::string names;
+    for (const RobotInstance& r : cell.robots) {
+      names += (names.empty() ? "'" : ", '") + r.name + "'";
+    }
+    return Error{error_code(ConfigError::kUnknownRobot),
+                 fmt::format("{} has {} robots ({}): say which one with --robot NAME", l.workcell,
+                             cell.robots.size(), names)};
+  }
+  // the robot's own view: the scene in its base frame (cube positions are the robot's)
+  RobotInstance chosen = cell.robots[static_cast<std::size_t>(index)];
+  chosen.model = scene_in_base(cell, index);
+  return ChosenRobot{std::move(chosen), index};
+}
+
+}  // namespace
 
 int with_hub(const CommonOptions& common, const LinkArgs& l, const std::string& kind,
              const std::string& label, const std::function<Status(Hub&)>& body) {
-  auto model = load_model(common);
-  if (!model) return kExitUsage;
+  auto chosen = choose_robot(common, l);
+  if (!chosen) {
+    if (!chosen.error().message.empty()) {
+      std::fprintf(stderr, "scaratwin %s: %s\n", kind.c_str(), chosen.error().message.c_str());
+    }
+    return kExitUsage;
+  }
+  const RobotModel& model = chosen->instance.model;
   HubOptions o;
+  o.sim_robot = chosen->index;
   o.serial_device = l.serial;
   if (o.serial_device.empty()) {
     if (const char* env = std::getenv("SCARATWIN_SERIAL")) o.serial_device = env;
@@ -126,8 +189,7 @@ int with_hub(const CommonOptions& common, const LinkArgs& l, const std::string& 
   o.sim_host = l.sim.substr(0, colon);
   o.sim_port = static_cast<std::uint16_t>(port);
   o.sim_token = l.sim_token;
-  o.description_source =
-      common.config_path.empty() ? default_robot_config_path().string() : common.config_path;
+  o.description_source = chosen->instance.description_file;
   // stop acts on the robot alone, so it may run while another hub controls the simulator
   if (kind == "stop") o.sim_role = "observe";
   if (o.sim_token.empty()) {
@@ -143,7 +205,7 @@ int with_hub(const CommonOptions& common, const LinkArgs& l, const std::string& 
     db = std::move(*d);
   }
   InterruptWatcher watcher;
-  auto hub = Hub::connect(*model, o, db.get());
+  auto hub = Hub::connect(model, o, db.get());
   if (!hub) {
     std::fprintf(stderr, "scaratwin %s: %s\n", kind.c_str(), hub.error().message.c_str());
     return kExitFailure;

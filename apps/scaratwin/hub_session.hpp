@@ -17,9 +17,11 @@ struct LinkArgs {
   std::string sim_token;
   std::string db = "scaratwin-out/twin.db";
   bool no_db = false;
+  std::string workcell;  // several robots around one scene (docs/workcell.md); empty: --config
+  std::string robot;     // which of the workcell's robots (empty: the only one)
 };
 
-// Adds --serial, --sim, --sim-token, --db and --no-db.
+// Adds --serial, --sim, --sim-token, --db, --no-db, --workcell and --robot.
 void add_link_options(CLI::App& cmd, LinkArgs& l);
 
 // Connects a hub to the robot and the simulator, begins a run (`kind`, `label`) in the twin

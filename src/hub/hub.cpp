@@ -95,9 +95,9 @@ Hub::~Hub() {
   // statements and channels first (they hold the links' handlers), then the links, then the
   // io thread.
   statements_.reset();
-  robot_.reset();
+  robot_ = nullptr;
+  if (robot_if_) robot_if_->shutdown();
   sim_.reset();
-  serial_.reset();
   tcp_.reset();
   io_.reset();
   if (db_ != nullptr) (void)db_->flush();
@@ -105,29 +105,28 @@ Hub::~Hub() {
 
 Result<std::unique_ptr<Hub>> Hub::connect(const RobotModel& model, const HubOptions& o,
                                           TwinDb* db) {
+  return connect(model, serial_robot(o.serial_device, o.baud), o, db);
+}
+
+Result<std::unique_ptr<Hub>> Hub::connect(const RobotModel& model,
+                                          std::unique_ptr<RobotInterface> robot,
+                                          const HubOptions& o, TwinDb* db) {
+  if (!robot) return hub_error("no robot to connect to");
   std::unique_ptr<Hub> t(new Hub(model, o, db));
   t->io_ = tr::IoThread::create("scaratwin-hub");
-  tr::SerialOptions so;
-  so.device = o.serial_device;
-  so.baud = o.baud;
-  auto serial = tr::SerialLink::create(so, t->io_);
-  if (!serial) return serial.error();
-  t->serial_ = std::move(*serial);
+  t->robot_if_ = std::move(robot);
   tr::TcpClientOptions to;
   to.host = o.sim_host;
   to.port = o.sim_port;
   auto tcp = tr::TcpClient::create(to, t->io_);
   if (!tcp) return tcp.error();
   t->tcp_ = std::move(*tcp);
-  if (Status s = t->serial_->wait_connected(ms(o.hello_timeout_s)); !s) {
-    return hub_error(
-        fmt::format("physical robot: cannot open {}: {}", o.serial_device, s.error().message));
-  }
+  if (Status s = t->robot_if_->configure(t->io_, ms(o.hello_timeout_s)); !s) return s.error();
   if (Status s = t->tcp_->wait_connected(ms(o.hello_timeout_s)); !s) {
     return hub_error(fmt::format("virtual robot: no simulator at {}:{}: {}", o.sim_host, o.sim_port,
                                  s.error().message));
   }
-  t->robot_ = std::make_unique<tr::RobotChannel>(*t->serial_, tr::robot_channel_defaults());
+  t->robot_ = &t->robot_if_->channel();
   // the simulator link's heartbeat: a simulator that hangs with its socket open (stopped,
   // deadlocked) is noticed within 1.2 s like one that died (docs/protocol.md section 11); a
   // camera shot may take its own timeout (render and PNG on a busy machine)
@@ -142,8 +141,8 @@ Result<std::unique_ptr<Hub>> Hub::connect(const RobotModel& model, const HubOpti
   // polling every 100 ms keeps its 15-point queue (0.3 s at 20 ms a point) topped up without
   // crowding the reports out of its transmit buffer.
   so_statements.credit_poll = std::chrono::milliseconds(100);
-  t->statements_ =
-      std::make_unique<tr::Twin>(t->model_, t->robot_.get(), t->sim_.get(), so_statements);
+  so_statements.robot = o.sim_robot;
+  t->statements_ = std::make_unique<tr::Twin>(t->model_, t->robot_, t->sim_.get(), so_statements);
   Hub* raw = t.get();
   t->sim_->set_state_handler([raw](tr::LinkState s) { raw->on_sim_link(s); });
   t->robot_->set_unsolicited_handler([raw](pr::SerialFromDevice&& m, const tr::RxPacket& rx) {
@@ -172,8 +171,8 @@ Result<std::unique_ptr<Hub>> Hub::connect(const RobotModel& model, const HubOpti
         return hub_error("physical robot: unexpected hello reply (protocol version mismatch?)");
       }
       if (Status s = check_description(
-              *hi, fmt::format("the physical robot's firmware on {}", o.serial_device), description,
-              o,
+              *hi, fmt::format("the physical robot's firmware on {}", t->robot_if_->where()),
+              description, o,
               "build and flash the firmware for this description (cmake "
               "-DSCARATWIN_ROBOT_DESCRIPTION=FILE), or start the hub with the firmware's --config");
           !s) {
@@ -184,7 +183,7 @@ Result<std::unique_ptr<Hub>> Hub::connect(const RobotModel& model, const HubOpti
     }
     if (std::chrono::steady_clock::now() > deadline) {
       return hub_error(fmt::format("physical robot on {} did not answer hello within {} s: {}",
-                                   o.serial_device, o.hello_timeout_s, r.error().message));
+                                   t->robot_if_->where(), o.hello_timeout_s, r.error().message));
     }
   }
   auto hi = t->sim_->request(sim_hello(o, description), ms(o.hello_timeout_s));
@@ -208,6 +207,18 @@ Result<std::unique_ptr<Hub>> Hub::connect(const RobotModel& model, const HubOpti
                                    access_refusal(hi.error().message, o)));
     }
     return hub_error(fmt::format("simulator hello: {}", hi.error().message));
+  }
+  // the simulator hosts the robot this hub drives (protocol v2: its index names it), asked
+  // before the robot is told anything more than hello
+  if (o.sim_robot != 0) {
+    auto qs = t->sim_->request(pr::QueryState{o.sim_robot}, milliseconds(2000));
+    if (!qs && qs.error().code == protocol_error_code(pr::kErrNoRobot)) {
+      return hub_error(fmt::format(
+          "the simulator at {}:{} has no robot {} (it counts from 0): start it with the "
+          "workcell this robot belongs to",
+          o.sim_host, o.sim_port, o.sim_robot));
+    }
+    if (!qs) return hub_error(fmt::format("simulator state: {}", qs.error().message));
   }
   // an un-homed robot's joints are its counts since power-up, not where it is (d1 reads 0 mm,
   // below its soft limit): the simulator takes them for no limit warning until homing ends
@@ -292,7 +303,7 @@ void Hub::set_mirror(bool on) {
   }
   // mirroring (again): the simulator in mirror mode, and a new stream of frames for it (the
   // reports the hub did not forward meanwhile were not lost, docs/protocol.md section 7)
-  if (started) (void)sim_->post(pr::SetMode{pr::SimMode::kMirror});
+  if (started) (void)sim_->post(pr::SetMode{pr::SimMode::kMirror, options_.sim_robot});
 }
 
 void Hub::on_sim_link(tr::LinkState state) {
@@ -358,7 +369,7 @@ void Hub::on_sim_answered() {
     sim_grip_closed_ = false;  // a restarted simulator has its gripper open
   }
   // the mirror mode for a new stream of frames
-  if (mirror) (void)sim_->post(pr::SetMode{pr::SimMode::kMirror});
+  if (mirror) (void)sim_->post(pr::SetMode{pr::SimMode::kMirror, options_.sim_robot});
   std::fprintf(stderr, "scaratwin: the simulator link is back\n");
   record_event("link", "simulator link back");
 }
@@ -615,6 +626,7 @@ void Hub::forward_to_sim(const PhysicalState& ps) {
   pr::JointData jd;
   jd.seq = ps.raw.seq;
   jd.q = ps.q;
+  jd.robot = options_.sim_robot;
   const std::int64_t rx_us = ps.rx_steady_us;
   const std::uint32_t device_t = ps.raw.t_us;
   const JointVector q = ps.q;
@@ -673,7 +685,11 @@ void Hub::forward_to_sim(const PhysicalState& ps) {
       changed = true;
     }
   }
-  if (changed) (void)sim_->post(pr::Grasp{closed});
+  if (changed) {
+    pr::Grasp grasp{closed};
+    grasp.robot = options_.sim_robot;
+    (void)sim_->post(grasp);
+  }
 }
 
 // --- physical robot ---------------------------------------------------------------------------
@@ -1082,7 +1098,7 @@ Result<int> Hub::run_trajectory(const JointTrajectory& traj, double timeout_s) {
   return load->points;
 }
 
-tr::LinkCounters Hub::serial_counters() const { return serial_->counters(); }
+tr::LinkCounters Hub::serial_counters() const { return robot_if_->counters(); }
 tr::LinkCounters Hub::sim_counters() const { return tcp_->counters(); }
 
 }  // namespace scaratwin

@@ -34,6 +34,7 @@ Status Hub::place_virtual(const JointVector& q) {
   pr::JointData jd;
   jd.t_us = static_cast<std::uint32_t>(tr::steady_now_us());
   jd.q = q;
+  jd.robot = options_.sim_robot;
   auto ja =
       sim_reply<pr::JointApplied>("place the virtual robot", sim_->request(jd, milliseconds(2000)));
   if (!ja) return ja.error();
@@ -44,15 +45,16 @@ Status Hub::set_twin_phase(pr::TwinPhase phase) {
   // an un-homed robot's joints are its counts since power-up, not where it is: the simulator
   // hears that it homes, whatever the phase, until it has (home() restores the phase)
   const pr::TwinPhase said = robot_homed_ ? phase : pr::TwinPhase::kHoming;
-  auto r =
-      sim_reply<pr::Ack>("twin phase", sim_->request(pr::SetTwinPhase{said}, milliseconds(2000)));
+  auto r = sim_reply<pr::Ack>(
+      "twin phase", sim_->request(pr::SetTwinPhase{said, options_.sim_robot}, milliseconds(2000)));
   if (!r) return r.error();
   if (phase != pr::TwinPhase::kHoming) twin_phase_ = phase;
   return Ok{};
 }
 
 Status Hub::sim_mode(pr::SimMode mode) {
-  auto r = sim_reply<pr::Ack>("mode", sim_->request(pr::SetMode{mode}, milliseconds(2000)));
+  auto r = sim_reply<pr::Ack>(
+      "mode", sim_->request(pr::SetMode{mode, options_.sim_robot}, milliseconds(2000)));
   if (!r) return r.error();
   return Ok{};
 }
@@ -100,7 +102,8 @@ Result<tr::GripOutcome> Hub::sim_grasp(bool close) {
 }
 
 Result<pr::SimState> Hub::sim_state() {
-  return sim_reply<pr::SimState>("state", sim_->request(pr::QueryState{}, milliseconds(2000)));
+  return sim_reply<pr::SimState>(
+      "state", sim_->request(pr::QueryState{options_.sim_robot}, milliseconds(2000)));
 }
 
 Status Hub::simulate_trajectory(const JointTrajectory& traj, double speed) {
@@ -129,6 +132,7 @@ Status Hub::simulate_trajectory(const JointTrajectory& traj, double speed) {
     tj.seq = static_cast<std::uint16_t>(k);
     tj.t_us = static_cast<std::uint32_t>(tr::steady_now_us());
     tj.q = s.q;
+    tj.robot = options_.sim_robot;
     {
       std::lock_guard<std::mutex> lock(mu_);
       add_sample(SampleSource::kPlanned,

@@ -81,6 +81,7 @@ Result<JointsApplied> Twin::send_joints_to_virtual(const JointVector& q) {
   jd.seq = jd_seq_++;
   jd.t_us = static_cast<std::uint32_t>(steady_now_us());
   jd.q = q;
+  jd.robot = options_.robot;
   auto reply = virtual_->request(jd, options_.reply_timeout);
   if (!reply) return with_context(kName, reply.error());
   const auto* ja = std::get_if<JointApplied>(&reply->last());
@@ -390,7 +391,9 @@ Result<GripOutcome> Twin::gripper(bool close, Robots which) {
     if (!r) return with_context(name, r.error());
   }
   if (virt) {
-    auto r = virtual_->request(Grasp{close}, options_.reply_timeout);
+    Grasp grasp{close};
+    grasp.robot = options_.robot;
+    auto r = virtual_->request(grasp, options_.reply_timeout);
     if (!r) return with_context(name, r.error());
     const auto* gs = std::get_if<GripperState>(&r->last());
     if (!gs) return unexpected<TcpFromSim>(name, "GR");

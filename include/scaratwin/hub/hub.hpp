@@ -31,6 +31,7 @@
 
 #include "scaratwin/core/result.hpp"
 #include "scaratwin/hub/analysis.hpp"
+#include "scaratwin/hub/robot_interface.hpp"
 #include "scaratwin/hub/twin_db.hpp"
 #include "scaratwin/kinematics/motor.hpp"
 #include "scaratwin/protocol/messages.hpp"
@@ -44,7 +45,8 @@
 namespace scaratwin {
 
 struct HubOptions {
-  std::string serial_device;  // /dev/ttyACM0 or the emulator's pty
+  // /dev/ttyACM0 or the emulator's pty: the robot of connect() without a RobotInterface
+  std::string serial_device;
   unsigned baud = 115200;
   std::string sim_host = "127.0.0.1";
   std::uint16_t sim_port = 55016;
@@ -52,6 +54,10 @@ struct HubOptions {
   // "observe": the hub only watches the simulator (the stop command, which may run while
   // another hub controls it); empty: it controls it (one controlling client at a time)
   std::string sim_role;
+  // The robot's index in the simulator's workcell (protocol v2, docs/protocol.md section
+  // 11.3): every robot-addressed packet to the simulator carries it; 0, the first robot, sends
+  // the v1 bytes. A simulator without that robot refuses it (error 19, no_robot).
+  int sim_robot = 0;
   int report_rate_hz = 100;           // robot state reports while connected
   double hello_timeout_s = 5.0;       // a real board spends ~2 s in its bootloader
   double desync_threshold_m = 0.003;  // tool deviation that raises the desync alarm
@@ -100,14 +106,22 @@ struct MirrorCounters {
 class Hub {
  public:
   // Connects both links, exchanges hellos and starts the robot's state reports. `db` may be
-  // null (nothing recorded); it must outlive the twin.
+  // null (nothing recorded); it must outlive the twin. The robot is the serial device of
+  // `options` (serial_robot()).
   static Result<std::unique_ptr<Hub>> connect(const RobotModel& model, const HubOptions& options,
                                               TwinDb* db);
+  // The same with the robot given as a hardware interface (a serial board, the emulated
+  // robot, a fake): configured here, held until the hub goes.
+  static Result<std::unique_ptr<Hub>> connect(const RobotModel& model,
+                                              std::unique_ptr<RobotInterface> robot,
+                                              const HubOptions& options, TwinDb* db);
   ~Hub();
   Hub(const Hub&) = delete;
   Hub& operator=(const Hub&) = delete;
 
   const RobotModel& model() const { return model_; }
+  // The physical robot's hardware interface (its kind, where it is).
+  const RobotInterface& robot_interface() const { return *robot_if_; }
   // Replaces the description (a calibrated one after calibration): later conversions between
   // step counts and joints, plans and the mirror use it. Call it between statements.
   void set_model(const RobotModel& model);
@@ -244,9 +258,9 @@ class Hub {
   HubOptions options_;
   TwinDb* db_;
   std::shared_ptr<transport::IoThread> io_;
-  std::unique_ptr<transport::SerialLink> serial_;
+  std::unique_ptr<RobotInterface> robot_if_;  // the physical robot's hardware interface
   std::unique_ptr<transport::TcpClient> tcp_;
-  std::unique_ptr<transport::RobotChannel> robot_;
+  transport::RobotChannel* robot_ = nullptr;  // robot_if_'s channel, once configured
   std::unique_ptr<transport::SimChannel> sim_;
   std::unique_ptr<transport::Twin> statements_;  // the paper's control statements
 

@@ -23,8 +23,8 @@
 #include <mutex>
 #include <vector>
 
-#include "scaratwin/kinematics/motor.hpp"
 #include "scaratwin/core/result.hpp"
+#include "scaratwin/kinematics/motor.hpp"
 #include "scaratwin/kinematics/robot_model.hpp"
 #include "scaratwin/trajectory/trajectory.hpp"
 #include "scaratwin/transport/channel.hpp"
@@ -36,6 +36,10 @@ struct TwinOptions {
   Duration image_timeout{10000};    // camera shot: render + PNG encode + transfer
   Duration credit_poll{20};         // trajectory: how often to ask for free slots when out
   std::size_t max_stored = 100000;  // joint samples kept by read_physical_joints()
+  // the virtual robot's index in the simulator's workcell: every robot-addressed packet to
+  // the simulator carries it (protocol v2, docs/protocol.md section 11.3; 0: the first robot,
+  // whose packets keep their v1 bytes)
+  std::int32_t robot = 0;
 };
 
 // One stored reading of the physical robot (OperationMonitoring2).
