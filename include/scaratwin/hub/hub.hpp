@@ -233,8 +233,12 @@ class Hub {
   void on_sim_answered();
   // The watchdog thread: notices the robot link going silent.
   void watch_robot_link();
-  // Why the trajectory in progress must end (empty: it may go on). mu_ held.
-  bool motion_aborted() const { return interrupted_ || !motion_abort_.empty(); }
+  // The trajectory in progress must end (interrupted, or motion_abort_ says why). An abort
+  // reason outlives its trajectory, for the error it returns, but ends no later wait: a
+  // homing after a cut must not fail with the cut's reason. mu_ held.
+  bool motion_aborted() const {
+    return interrupted_ || (in_motion_ && !motion_abort_.empty());
+  }
   bool sim_link_up() const {
     std::lock_guard<std::mutex> lock(mu_);
     return sim_up_;

@@ -1,0 +1,314 @@
+// The hub through its robot interface (hub/robot_interface.hpp): the fake robot of the unit
+// tests (fake_robot.hpp, the firmware's protocol on a real pty), the emulated robot started
+// for the hub, and the robot a command picks from a workcell (`--robot NAME`). A real
+// simulator (scaratwin-sim, no camera) is the virtual side of every hub here.
+//
+// Expected figures are worked out by hand from config/scara.toml, not by the code under test:
+// J2 has 945 steps per rad, J3 1455 and moves 0.8 of each J2 step (the belt coupling); Z has
+// 205,560 steps per metre.
+#include <unistd.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <filesystem>
+#include <future>
+#include <memory>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include <fmt/format.h>
+#include <gtest/gtest.h>
+
+#include "fake_robot.hpp"
+#include "scaratwin/config/robot_config.hpp"
+#include "scaratwin/hub/hub.hpp"
+#include "scaratwin/hub/process.hpp"
+#include "scaratwin/trajectory/trajectory.hpp"
+
+namespace scaratwin {
+namespace {
+
+namespace fs = std::filesystem;
+using namespace std::chrono_literals;
+using fake::FakeRobot;
+using fake::FakeRobotOptions;
+
+const fs::path kBin = SCARATWIN_BIN_DIR;
+const fs::path kConfig = SCARATWIN_CONFIG_FILE;
+const fs::path kWorkcell = SCARATWIN_WORKCELL_FILE;
+
+fs::path fresh_dir(const char* name) {
+  fs::path p = fs::temp_directory_path() / fmt::format("scaratwin-robots-{}-{}", name, getpid());
+  fs::remove_all(p);
+  fs::create_directories(p);
+  return p;
+}
+
+RobotModel paper_model() {
+  auto m = load_robot_config(kConfig);
+  if (!m) ADD_FAILURE() << m.error().message;
+  return *m;
+}
+
+// The fake as the hub's robot: a serial robot on the fake's pty, of kind "fake", that keeps
+// the fake running while the hub holds it.
+class FakeInterface final : public RobotInterface {
+ public:
+  explicit FakeInterface(std::shared_ptr<FakeRobot> robot)
+      : robot_(std::move(robot)), serial_(serial_robot(robot_->device_path())) {}
+  const char* kind() const override { return "fake"; }
+  std::string where() const override { return serial_->where(); }
+  Status configure(const std::shared_ptr<transport::IoThread>& io,
+                   std::chrono::milliseconds timeout) override {
+    return serial_->configure(io, timeout);
+  }
+  transport::RobotChannel& channel() override { return serial_->channel(); }
+  transport::LinkCounters counters() const override { return serial_->counters(); }
+  void shutdown() override { serial_->shutdown(); }
+
+ private:
+  std::shared_ptr<FakeRobot> robot_;
+  std::unique_ptr<RobotInterface> serial_;
+};
+
+// One simulator for the suite (one hub at a time controls it).
+class HubRobots : public ::testing::Test {
+ protected:
+  static void SetUpTestSuite() {
+    dir_ = new fs::path(fresh_dir("sim"));
+    auto sim =
+        ChildProcess::start(kBin / "scaratwin-sim",
+                            {"--port", "0", "--http-port", "0", "--no-camera"}, *dir_ / "sim.log");
+    ASSERT_TRUE(sim) << sim.error().message;
+    sim_ = sim->release();
+    auto listening = sim_->wait_for_line("listening on", 60s);
+    ASSERT_TRUE(listening) << listening.error().message;
+    const size_t paren = listening->find(" (");
+    const size_t colon = listening->rfind(':', paren);
+    port_ = static_cast<std::uint16_t>(std::stoi(listening->substr(colon + 1, paren - colon - 1)));
+  }
+  static void TearDownTestSuite() {
+    delete sim_;
+    sim_ = nullptr;
+    delete dir_;
+  }
+
+  HubOptions options() const {
+    HubOptions o;
+    o.sim_port = port_;
+    o.hello_timeout_s = 5.0;
+    return o;
+  }
+
+  std::shared_ptr<FakeRobot> fake(FakeRobotOptions fo = {}) {
+    auto f = FakeRobot::start(model_, fo);
+    if (!f) ADD_FAILURE() << f.error().message;
+    return f ? std::shared_ptr<FakeRobot>(std::move(*f)) : nullptr;
+  }
+
+  RobotModel model_ = paper_model();
+  static inline ChildProcess* sim_ = nullptr;
+  static inline fs::path* dir_ = nullptr;
+  static inline std::uint16_t port_ = 0;
+};
+
+// Through the interface the hub reads the fake's reports, homes it and runs a trajectory;
+// the fake ends at the counts worked out by hand.
+TEST_F(HubRobots, TheHubHomesAndRunsATrajectoryOnTheFakeRobot) {
+  auto robot = fake();
+  ASSERT_TRUE(robot);
+  auto hub = Hub::connect(model_, std::make_unique<FakeInterface>(robot), options(), nullptr);
+  ASSERT_TRUE(hub) << hub.error().message;
+  EXPECT_STREQ((*hub)->robot_interface().kind(), "fake");
+  EXPECT_EQ((*hub)->robot_interface().where(), robot->device_path());
+  ASSERT_TRUE((*hub)->home(10.0));
+  // home: d1 0.12 m is round(0.12 * 205560) = 24667 Z steps
+  EXPECT_EQ(robot->state().steps[0], 24667);
+  const protocol::MotorSteps home = robot->state().steps;
+
+  JointVector q0 = (*hub)->physical().q;
+  JointVector q1 = q0;
+  q1[1] += 0.4;  // J2 +0.4 rad: 378 J2 steps, and J3 0.8 * 378 = 302.4 -> 302
+  auto plan = plan_quintic(model_, q0, q1);
+  ASSERT_TRUE(plan) << plan.error().message;
+  auto points = (*hub)->run_trajectory(*plan, 20.0);
+  ASSERT_TRUE(points) << points.error().message;
+  EXPECT_GT(*points, 1);
+  const protocol::MotorSteps end = robot->state().steps;
+  EXPECT_EQ(end[0], home[0]);
+  EXPECT_EQ(end[1] - home[1], 378);
+  EXPECT_EQ(end[2] - home[2], 302);
+  EXPECT_GT((*hub)->serial_counters().packets_in, 0u);
+  EXPECT_EQ((*hub)->mirror_counters().lost, 0u);
+}
+
+// A robot built for another description is refused at its hello, naming both hashes; the
+// hub sends it nothing after the hello.
+TEST_F(HubRobots, ARobotBuiltForAnotherDescriptionIsRefusedAtItsHello) {
+  FakeRobotOptions fo;
+  fo.description_hash = "0badf00d";
+  auto robot = fake(fo);
+  ASSERT_TRUE(robot);
+  auto hub = Hub::connect(model_, std::make_unique<FakeInterface>(robot), options(), nullptr);
+  ASSERT_FALSE(hub);
+  EXPECT_EQ(hub.error().message,
+            fmt::format("the physical robot's firmware on {} was built for robot description "
+                        "0badf00d, this hub for f062700f: build and flash the firmware for this "
+                        "description (cmake -DSCARATWIN_ROBOT_DESCRIPTION=FILE), or start the hub "
+                        "with the firmware's --config",
+                        robot->device_path()));
+  EXPECT_EQ(robot->received_codes(), std::vector<std::string>{"HI"});
+  EXPECT_EQ(robot->moves_started(), 0);
+}
+
+// A simulator that does not host the robot's index is refused before the robot hears more
+// than the hello.
+TEST_F(HubRobots, ASimulatorWithoutTheRobotIsRefusedBeforeTheRobotIsTold) {
+  auto robot = fake();
+  ASSERT_TRUE(robot);
+  HubOptions o = options();
+  o.sim_robot = 1;
+  auto hub = Hub::connect(model_, std::make_unique<FakeInterface>(robot), o, nullptr);
+  ASSERT_FALSE(hub);
+  EXPECT_EQ(hub.error().message,
+            fmt::format("the simulator at 127.0.0.1:{} has no robot 1 (it counts from 0): start "
+                        "it with the workcell this robot belongs to",
+                        port_));
+  EXPECT_EQ(robot->received_codes(), std::vector<std::string>{"HI"});
+}
+
+// The stop statement: the fake confirms it, and the next trajectory runs (recover()).
+TEST_F(HubRobots, AStopIsConfirmedAndTheNextTrajectoryRuns) {
+  auto robot = fake();
+  ASSERT_TRUE(robot);
+  auto hub = Hub::connect(model_, std::make_unique<FakeInterface>(robot), options(), nullptr);
+  ASSERT_TRUE(hub) << hub.error().message;
+  ASSERT_TRUE((*hub)->home(10.0));
+  ASSERT_TRUE((*hub)->stop());
+  EXPECT_NE(robot->state().flags & protocol::state_flags::kHalted, 0u);
+  JointVector q0 = (*hub)->physical().q;
+  JointVector q1 = q0;
+  q1[2] -= 0.2;  // J3 -0.2 rad: 1455 * 0.2 = 291 J3 steps
+  const protocol::MotorSteps before = robot->state().steps;
+  auto plan = plan_quintic(model_, q0, q1);
+  ASSERT_TRUE(plan) << plan.error().message;
+  auto points = (*hub)->run_trajectory(*plan, 20.0);
+  ASSERT_TRUE(points) << points.error().message;
+  EXPECT_EQ(robot->state().steps[2] - before[2], -291);
+  EXPECT_EQ(robot->state().steps[1], before[1]);
+  EXPECT_EQ(robot->state().flags & protocol::state_flags::kHalted, 0u);
+}
+
+// A robot that goes silent mid-trajectory: the trajectory ends with the hub's stop sent into
+// the silence, and once the link is back the robot homes again.
+TEST_F(HubRobots, ARobotSilentMidTrajectoryEndsItAndHomesWhenItIsBack) {
+  auto robot = fake();
+  ASSERT_TRUE(robot);
+  auto hub = Hub::connect(model_, std::make_unique<FakeInterface>(robot), options(), nullptr);
+  ASSERT_TRUE(hub) << hub.error().message;
+  ASSERT_TRUE((*hub)->home(10.0));
+  JointVector q0 = (*hub)->physical().q;
+  JointVector q1 = q0;
+  q1[1] += 1.0;
+  auto plan = plan_quintic(model_, q0, q1, QuinticOptions{60, 4.0});
+  ASSERT_TRUE(plan) << plan.error().message;
+  auto run = std::async(std::launch::async, [&] { return (*hub)->run_trajectory(*plan, 30.0); });
+  std::this_thread::sleep_for(700ms);
+  robot->set_silent(true);
+  ASSERT_EQ(run.wait_for(15s), std::future_status::ready);
+  auto r = run.get();
+  ASSERT_FALSE(r);
+  const auto codes = robot->received_codes();
+  EXPECT_NE(std::find(codes.begin(), codes.end(), "!"), codes.end())
+      << "the hub sent no stop into the silence";
+  robot->set_silent(false);
+  const Status homed = (*hub)->home(10.0);
+  ASSERT_TRUE(homed) << "homing after the silence: " << homed.error().message;
+  EXPECT_EQ(robot->state().steps[0], 24667);
+}
+
+// The emulated robot: the interface starts the emulator, the hub reads its reports over the
+// pty it printed, and the emulator stops with the hub (its pty goes away).
+TEST_F(HubRobots, TheEmulatedRobotIsStartedForTheHubAndStoppedWithIt) {
+  const fs::path dir = fresh_dir("emulated");
+  EmulatedRobotOptions eo;
+  eo.executable = kBin / "scaratwin-robot";
+  eo.args = {"--plant", "ideal", "--camera-port", "-1"};
+  eo.log = dir / "robot.log";
+  HubOptions o = options();
+  auto hub = Hub::connect(model_, emulated_robot(eo), o, nullptr);
+  ASSERT_TRUE(hub) << hub.error().message;
+  EXPECT_STREQ((*hub)->robot_interface().kind(), "emulated");
+  const std::string pty = (*hub)->robot_interface().where();
+  EXPECT_EQ(pty.rfind("/dev/pts/", 0), 0u) << pty;
+  auto st = (*hub)->fresh_physical(5.0);
+  ASSERT_TRUE(st) << st.error().message;
+  EXPECT_TRUE(st->valid);
+  hub->reset();
+  EXPECT_FALSE(fs::exists(pty)) << "the emulator's pty is still there: the emulator runs on";
+}
+
+struct Outcome {
+  int status = -1;
+  std::string output;  // stdout and stderr
+};
+
+Outcome run_cli(const std::vector<std::string>& args) {
+  Outcome o;
+  auto p = ChildProcess::start(kBin / "scaratwin", args);
+  if (!p) {
+    ADD_FAILURE() << p.error().message;
+    return o;
+  }
+  o.status = (*p)->wait_exit(60s);
+  o.output = (*p)->output_tail(200);
+  return o;
+}
+
+// `--robot NAME` picks one robot of a workcell: a workcell of two needs it, an unknown name
+// is refused (exit 2) before anything is opened, and the robot's index reaches the
+// simulator, which refuses a robot it does not host before the robot hears more than hello.
+TEST_F(HubRobots, TheCommandLinePicksTheRobotByName) {
+  const std::string sim = fmt::format("127.0.0.1:{}", port_);
+  Outcome o = run_cli(
+      {"home", "--workcell", kWorkcell.string(), "--serial", "/dev/null", "--sim", sim, "--no-db"});
+  EXPECT_EQ(o.status, 2) << o.output;
+  EXPECT_NE(o.output.find(fmt::format("scaratwin home: {} has 2 robots ('left', 'right'): say "
+                                      "which one with --robot NAME",
+                                      kWorkcell.string())),
+            std::string::npos)
+      << o.output;
+
+  o = run_cli({"home", "--config", kConfig.string(), "--robot", "arm7", "--serial", "/dev/null",
+               "--sim", sim, "--no-db"});
+  EXPECT_EQ(o.status, 2) << o.output;
+  EXPECT_NE(o.output.find("scaratwin home: no robot named 'arm7' in the workcell (robots: "
+                          "'robot')"),
+            std::string::npos)
+      << o.output;
+
+  auto right = fake();
+  ASSERT_TRUE(right);
+  o = run_cli({"home", "--workcell", kWorkcell.string(), "--robot", "right", "--serial",
+               right->device_path(), "--sim", sim, "--no-db"});
+  EXPECT_EQ(o.status, 1) << o.output;
+  EXPECT_NE(o.output.find(fmt::format("scaratwin home: the simulator at {} has no robot 1", sim)),
+            std::string::npos)
+      << o.output;
+  EXPECT_EQ(right->received_codes(), std::vector<std::string>{"HI"});
+  EXPECT_EQ(right->moves_started(), 0);
+
+  // the first robot of the workcell is the simulator's robot 0: it homes
+  auto left = fake();
+  ASSERT_TRUE(left);
+  o = run_cli({"home", "--workcell", kWorkcell.string(), "--robot", "left", "--serial",
+               left->device_path(), "--sim", sim, "--no-db"});
+  EXPECT_EQ(o.status, 0) << o.output;
+  EXPECT_NE(left->state().flags & protocol::state_flags::kHomed, 0u);
+  EXPECT_EQ(left->state().steps[0], 24667);
+}
+
+}  // namespace
+}  // namespace scaratwin
