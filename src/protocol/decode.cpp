@@ -202,7 +202,8 @@ Decoded<SerialToDevice> to_message(const Packet& p, SerialToDevice*) {
     case code_id('S', 'P'):
       return make<M>(Stop{});
     case code_id('C', 'F'):
-      in_range(p, 0, 1, 6, &error);
+      // the firmware's keys 1..11 (docs/firmware.md); their values are the firmware's to judge
+      in_range(p, 0, 1, 11, &error);
       return checked<M>(error, Config{p.i32(0), optional_field(p, 1)});
     default:
       break;

@@ -97,8 +97,20 @@ TEST(ProtocolMalformed, SerialToDevice) {
       {"dt of zero", "TP=0=0=1=2=3=4=\n", core::kErrBadValue},
       {"axis 7", "JG=7=10=\n", core::kErrBadValue},
       {"unknown setting", "CF=99=\n", core::kErrBadValue},
+      {"setting after the last one", "CF=12=\n", core::kErrBadValue},
   };
   check_rejected_then_recovered<SerialToDevice>(corpus, "SP=\n", SerialToDevice(Stop{}));
+}
+
+// Every key of the firmware's settings table (docs/firmware.md: 1..11) decodes, the last one
+// (the serial rate) and the companion dialect's included.
+TEST(ProtocolMalformed, EverySettingKeyOfTheFirmwareDecodes) {
+  SerialToDeviceDecoder d;
+  const auto items = d.feed("CF=7=\nCF=10=1=\nCF=11=1152=\n");
+  ASSERT_EQ(items.size(), 3u);
+  EXPECT_EQ(std::get<0>(items[0]), SerialToDevice(Config{7, std::nullopt}));
+  EXPECT_EQ(std::get<0>(items[1]), SerialToDevice(Config{10, 1}));
+  EXPECT_EQ(std::get<0>(items[2]), SerialToDevice(Config{11, 1152}));
 }
 
 TEST(ProtocolMalformed, SerialFromDevice) {
