@@ -22,6 +22,7 @@
 #include <fmt/format.h>
 #include <gtest/gtest.h>
 
+#include "hub_test_support.hpp"
 #include "scaratwin/config/robot_config.hpp"
 #include "scaratwin/hub/process.hpp"
 
@@ -40,21 +41,10 @@ fs::path fresh_dir(const char* name) {
   return p;
 }
 
-struct Outcome {
-  int status = -1;
-  std::string output;  // stdout and stderr
-};
+using test::Outcome;
 
 Outcome run_cli(const std::vector<std::string>& args) {
-  Outcome o;
-  auto p = ChildProcess::start(kBin / "scaratwin", args);
-  if (!p) {
-    ADD_FAILURE() << p.error().message;
-    return o;
-  }
-  o.status = (*p)->wait_exit(60s);
-  o.output = (*p)->output_tail(200);
-  return o;
+  return test::run_program(kBin / "scaratwin", args);
 }
 
 std::string joined(const std::vector<std::string>& args) {
@@ -277,11 +267,9 @@ TEST(Cli, AScriptWithASyntaxErrorOnItsLastLineMovesNothing) {
   auto side = (*robot)->wait_for_line("side channel: ", 60s);
   ASSERT_TRUE(side) << side.error().message;
   const int side_port = std::stoi(side->substr(side->rfind(':') + 1));
-  auto listening = (*sim)->wait_for_line("listening on", 60s);
-  ASSERT_TRUE(listening) << listening.error().message;
-  const size_t paren = listening->find(" (");
-  const size_t colon = listening->rfind(':', paren);
-  const std::string sim_port = listening->substr(colon + 1, paren - colon - 1);
+  auto port = test::simulator_port(**sim);
+  ASSERT_TRUE(port) << port.error().message;
+  const std::string sim_port = std::to_string(*port);
   {
     std::ofstream s(dir / "bad.txt");
     s << "# every line but the last is a valid statement\n"
@@ -358,11 +346,9 @@ void start_rig(const fs::path& dir, const fs::path& sim_config, EmulatedRig* rig
   auto side = rig->robot->wait_for_line("side channel: ", 60s);
   ASSERT_TRUE(side) << side.error().message;
   rig->side_port = std::stoi(side->substr(side->rfind(':') + 1));
-  auto listening = rig->sim->wait_for_line("listening on", 60s);
-  ASSERT_TRUE(listening) << listening.error().message;
-  const size_t paren = listening->find(" (");
-  const size_t colon = listening->rfind(':', paren);
-  rig->sim_address = "127.0.0.1:" + listening->substr(colon + 1, paren - colon - 1);
+  auto port = test::simulator_port(*rig->sim);
+  ASSERT_TRUE(port) << port.error().message;
+  rig->sim_address = fmt::format("127.0.0.1:{}", *port);
 }
 
 // The hello carries the robot description's hash (docs/protocol.md section 11): a hub refuses

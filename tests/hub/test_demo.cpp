@@ -21,6 +21,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include "hub_test_support.hpp"
 #include "scaratwin/config/robot_config.hpp"
 #include "scaratwin/core/units.hpp"
 #include "scaratwin/hub/hub.hpp"
@@ -91,11 +92,9 @@ void start_rig(const fs::path& dir, bool camera, Rig* rig, bool ideal = false,
   auto side = rig->robot->wait_for_line("side channel: ", 60s);  // after its pty line
   ASSERT_TRUE(side) << side.error().message;
   rig->side_port = std::stoi(side->substr(side->rfind(':') + 1));
-  auto listening = rig->sim->wait_for_line("listening on", 60s);
-  ASSERT_TRUE(listening) << listening.error().message;
-  const size_t paren = listening->find(" (");
-  const size_t colon = listening->rfind(':', paren);
-  rig->sim_port = listening->substr(colon + 1, paren - colon - 1);
+  auto port = test::simulator_port(*rig->sim);
+  ASSERT_TRUE(port) << port.error().message;
+  rig->sim_port = std::to_string(*port);
 }
 
 // The calibration step's figures (results.json, docs/results.md), against the robot as built:

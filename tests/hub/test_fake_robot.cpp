@@ -3,6 +3,7 @@
 // firmware gives (docs/protocol.md sections 8, 9, 11), so that hub tests written against the
 // fake hold against the robot.
 #include "fake_robot.hpp"
+#include "hub_test_support.hpp"
 
 #include <gtest/gtest.h>
 
@@ -412,14 +413,11 @@ TEST(FakeRobotHub, TheHubConnectsHomesAndRunsATrajectory) {
       std::filesystem::path(SCARATWIN_BIN_DIR) / "scaratwin-sim",
       {"--port", "0", "--http-port", "0", "--no-camera", "--config", SCARATWIN_CONFIG_FILE});
   ASSERT_TRUE(sim) << sim.error().message;
-  auto listening = (*sim)->wait_for_line("listening on", 60s);
-  ASSERT_TRUE(listening) << listening.error().message;
-  const std::size_t paren = listening->find(" (");
-  const std::size_t colon = listening->rfind(':', paren);
+  auto port = test::simulator_port(**sim);
+  ASSERT_TRUE(port) << port.error().message;
   HubOptions opt;
   opt.serial_device = (*robot)->device_path();
-  opt.sim_port =
-      static_cast<std::uint16_t>(std::stoi(listening->substr(colon + 1, paren - colon - 1)));
+  opt.sim_port = *port;
   opt.description_source = SCARATWIN_CONFIG_FILE;
   auto hub = Hub::connect(*model, opt, nullptr);
   ASSERT_TRUE(hub) << hub.error().message;

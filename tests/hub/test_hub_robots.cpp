@@ -22,6 +22,7 @@
 #include <gtest/gtest.h>
 
 #include "fake_robot.hpp"
+#include "hub_test_support.hpp"
 #include "scaratwin/config/robot_config.hpp"
 #include "scaratwin/hub/hub.hpp"
 #include "scaratwin/hub/process.hpp"
@@ -34,6 +35,7 @@ namespace fs = std::filesystem;
 using namespace std::chrono_literals;
 using fake::FakeRobot;
 using fake::FakeRobotOptions;
+using test::Outcome;
 
 const fs::path kBin = SCARATWIN_BIN_DIR;
 const fs::path kConfig = SCARATWIN_CONFIG_FILE;
@@ -83,11 +85,9 @@ class HubRobots : public ::testing::Test {
                             {"--port", "0", "--http-port", "0", "--no-camera"}, *dir_ / "sim.log");
     ASSERT_TRUE(sim) << sim.error().message;
     sim_ = sim->release();
-    auto listening = sim_->wait_for_line("listening on", 60s);
-    ASSERT_TRUE(listening) << listening.error().message;
-    const size_t paren = listening->find(" (");
-    const size_t colon = listening->rfind(':', paren);
-    port_ = static_cast<std::uint16_t>(std::stoi(listening->substr(colon + 1, paren - colon - 1)));
+    auto port = test::simulator_port(*sim_);
+    ASSERT_TRUE(port) << port.error().message;
+    port_ = *port;
   }
   static void TearDownTestSuite() {
     delete sim_;
@@ -250,21 +250,8 @@ TEST_F(HubRobots, TheEmulatedRobotIsStartedForTheHubAndStoppedWithIt) {
   EXPECT_FALSE(fs::exists(pty)) << "the emulator's pty is still there: the emulator runs on";
 }
 
-struct Outcome {
-  int status = -1;
-  std::string output;  // stdout and stderr
-};
-
 Outcome run_cli(const std::vector<std::string>& args) {
-  Outcome o;
-  auto p = ChildProcess::start(kBin / "scaratwin", args);
-  if (!p) {
-    ADD_FAILURE() << p.error().message;
-    return o;
-  }
-  o.status = (*p)->wait_exit(60s);
-  o.output = (*p)->output_tail(200);
-  return o;
+  return test::run_program(kBin / "scaratwin", args);
 }
 
 // `--robot NAME` picks one robot of a workcell: a workcell of two needs it, an unknown name

@@ -1,0 +1,51 @@
+// Helpers shared by the hub's end-to-end tests: a program run to its end (exit status and
+// output), and the port a simulator child process listens on.
+#pragma once
+
+#include <chrono>
+#include <cstdint>
+#include <filesystem>
+#include <string>
+#include <vector>
+
+#include <gtest/gtest.h>
+
+#include "scaratwin/core/result.hpp"
+#include "scaratwin/hub/process.hpp"
+
+namespace scaratwin::test {
+
+struct Outcome {
+  int status = -1;
+  std::string output;  // stdout and stderr, the last 200 lines
+};
+
+// Runs `exe` with `args` until it exits (stopped after `timeout`).
+inline Outcome run_program(const std::filesystem::path& exe, const std::vector<std::string>& args,
+                           std::chrono::milliseconds timeout = std::chrono::seconds(60)) {
+  Outcome o;
+  auto p = ChildProcess::start(exe, args);
+  if (!p) {
+    ADD_FAILURE() << p.error().message;
+    return o;
+  }
+  o.status = (*p)->wait_exit(timeout);
+  o.output = (*p)->output_tail(200);
+  return o;
+}
+
+// The TCP port of a simulator started as a child (`scaratwin-sim --port 0`), from its line
+// "listening on HOST:PORT (...)".
+inline Result<std::uint16_t> simulator_port(
+    ChildProcess& sim, std::chrono::milliseconds timeout = std::chrono::seconds(60)) {
+  auto line = sim.wait_for_line("listening on", timeout);
+  if (!line) return line.error();
+  const std::size_t paren = line->find(" (");
+  const std::size_t colon = line->rfind(':', paren);
+  if (colon == std::string::npos || paren == std::string::npos || paren <= colon + 1) {
+    return Error{error_code(HubError::kFailed), "no port in the simulator's line: " + *line};
+  }
+  return static_cast<std::uint16_t>(std::stoi(line->substr(colon + 1, paren - colon - 1)));
+}
+
+}  // namespace scaratwin::test
