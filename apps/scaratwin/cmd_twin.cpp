@@ -136,13 +136,9 @@ Result<ChosenRobot> choose_robot(const CommonOptions& common, const LinkArgs& l)
     if (!k) return k.error();
     index = *k;
   } else if (cell.robots.size() > 1) {
-    std::string names;
-    for (const RobotInstance& r : cell.robots) {
-      names += (names.empty() ? "'" : ", '") + r.name + "'";
-    }
     return Error{error_code(ConfigError::kUnknownRobot),
                  fmt::format("{} has {} robots ({}): say which one with --robot NAME", l.workcell,
-                             cell.robots.size(), names)};
+                             cell.robots.size(), robot_names(cell))};
   }
   // the robot's own view: the scene in its base frame (cube positions are the robot's)
   RobotInstance chosen = cell.robots[static_cast<std::size_t>(index)];

@@ -46,12 +46,6 @@ double segment_segment(P2 a, P2 b, P2 c, P2 d) {
                    point_segment(d, a, b)});
 }
 
-std::string robot_list(const Workcell& w) {
-  std::string s;
-  for (const RobotInstance& r : w.robots) s += (s.empty() ? "'" : ", '") + r.name + "'";
-  return s;
-}
-
 }  // namespace
 
 Workcell single_robot_workcell(const RobotModel& model) {
@@ -182,13 +176,19 @@ Status validate(const Workcell& w) {
   return Ok{};
 }
 
+std::string robot_names(const Workcell& w) {
+  std::string s;
+  for (const RobotInstance& r : w.robots) s += (s.empty() ? "'" : ", '") + r.name + "'";
+  return s;
+}
+
 Result<int> robot_index(const Workcell& w, std::string_view name) {
   for (std::size_t i = 0; i < w.robots.size(); ++i) {
     if (w.robots[i].name == name) return static_cast<int>(i);
   }
   return Error{ConfigError::kUnknownRobot,
                fmt::format("no robot named '{}' in the workcell (robots: {})", name,
-                           w.robots.empty() ? std::string("none") : robot_list(w))};
+                           w.robots.empty() ? std::string("none") : robot_names(w))};
 }
 
 RobotModel scene_in_base(const Workcell& w, int robot) {

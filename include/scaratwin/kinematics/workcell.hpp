@@ -56,6 +56,9 @@ Workcell single_robot_workcell(const RobotModel& model);
 // each, seen from above); a base inside a tray's footprint.
 Status validate(const Workcell& workcell);
 
+// The robots' names for messages: "'left', 'right'" (empty for no robot).
+std::string robot_names(const Workcell& workcell);
+
 // Index of the robot called `name`; ConfigError::kUnknownRobot, listing the robots, otherwise.
 Result<int> robot_index(const Workcell& workcell, std::string_view name);
 
