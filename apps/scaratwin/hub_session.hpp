@@ -19,6 +19,7 @@ struct LinkArgs {
   bool no_db = false;
   std::string workcell;  // several robots around one scene (docs/workcell.md); empty: --config
   std::string robot;     // which of the workcell's robots (empty: the only one)
+  int report_hz = 100;   // the robot's state reports while the hub holds it (mirror --report-hz)
 };
 
 // Adds --serial, --sim, --sim-token, --db, --no-db, --workcell and --robot.

@@ -71,6 +71,9 @@ TEST(Cli, BadInputExitsTwoNamingTheValue) {
       {{"plan", "--to", "0.1", "30", "45", "10", "--speed-scale", "1.5"}, "1.5"},
       {{"plan", "--line", "0.2", "0.05", "nan", "0"}, "Z_M = nan"},
       {{"fly"}, "fly"},
+      // the firmware takes 0..1000 reports a second; a mirror needs at least one
+      {{"mirror", "--report-hz", "1001", "--serial", "/dev/null"}, "1001"},
+      {{"mirror", "--report-hz", "0", "--serial", "/dev/null"}, "--report-hz"},
       {{"fk", "--config", "/nonexistent/robot.toml", "0.12", "0", "0", "0"},
        "/nonexistent/robot.toml"},
   };
