@@ -608,6 +608,9 @@ TEST(Faults, SimulatorKeepsServingWhenItRunsOutOfFileDescriptors) {
       << "the waiting connection was never served";
   ::close(pending);
   ::close(link);
+  // the simulator says so before it serves the connection; its output reaches this process
+  // through a reader thread, which may not have taken the line yet (it had not, under TSan)
+  EXPECT_TRUE((*sim)->wait_for_line("accepting connections again", 5s));
   const std::string log = (*sim)->output_tail(200);
   EXPECT_EQ(count_of(log, "cannot accept a connection"), 1u) << log;
   EXPECT_EQ(count_of(log, "accepting connections again"), 1u) << log;
