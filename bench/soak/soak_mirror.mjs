@@ -16,12 +16,10 @@
 //          [--sample-s 10] [--max-growth-mb 5] [--out scaratwin-out/soak] [--chromium EXE]
 import { createRequire } from 'node:module';
 import fs from 'node:fs';
-import os from 'node:os';
 import path from 'node:path';
 
 import {
-  Side, check, chromiumArgs, freePort, parseArgs, results, sleep, start as startIn, stop, waitHttp,
-  waitOutput,
+  check, chromiumArgs, parseArgs, results, sleep, start as startIn, startChain, stopChain,
 } from '../../tests/web/harness.mjs';
 
 const args = parseArgs(process.argv.slice(2));
@@ -82,31 +80,18 @@ const median = (xs) => {
 };
 const fmt = (v, d = 1) => (Number.isFinite(v) ? v.toFixed(d) : '-');
 
-const dir = fs.mkdtempSync(path.join(os.tmpdir(), 'scaratwin-soak-'));
-const pty = path.join(dir, 'robot.pty');
-let robot = null;
-let sim = null;
+let chain = null;
 let mirror = null;
 let context = null;
-let side = null;
 const samples = [];
 let summary = null;
 
 try {
   fs.mkdirSync(out, { recursive: true });
-  const httpPort = await freePort();
-  robot = start('scaratwin-robot', ['--pty-link', pty, '--camera-port', '-1', '--exit-with-parent']);
-  sim = start('scaratwin-sim', ['--port', '0', '--http-port', String(httpPort), '--no-camera']);
-  const sideLine = await waitOutput(robot, /side channel: 127\.0\.0\.1:(\d+)/, 30000);
-  const simLine = await waitOutput(sim, /listening on 127\.0\.0\.1:(\d+)/, 30000);
-  const httpUp = await waitHttp(httpPort, 30000);
-  if (!sideLine || !simLine || !httpUp) {
-    throw new Error(`the robot, the simulator or its page did not come up:\n${robot.output}\n${sim.output}`);
-  }
-  const links = ['--serial', pty, '--sim', `127.0.0.1:${simLine[1]}`, '--db', path.join(out, 'soak.db')];
-  side = new Side(Number(sideLine[1]));
-  await side.connect();
-  await side.command('rate 0');
+  chain = await startChain(bin, {
+    robotArgs: ['--camera-port', '-1', '--exit-with-parent'], db: path.join(out, 'soak.db'),
+  });
+  const { robot, sim, side, links, httpPort, dir } = chain;
   const home = start('scaratwin', ['home', ...links]);
   if ((await home.exited) !== 0) throw new Error(`scaratwin home failed:\n${home.output}`);
 
@@ -195,19 +180,16 @@ try {
   }
   summary = {
     minutes, report_hz: reportHz, frames, lost, page_lost: after.lost - before.lost,
-    rate_hz: frames / seconds, latency_mean_ms: after.latency_mean_ms, growth_mb: growth,
+    rate_hz: frames / seconds,
+    latency_ms_median: median(samples.filter((s) => s.frames > 0).map((s) => s.latency_mean_ms)),
+    growth_mb: growth,
     first: samples[0], last: samples[samples.length - 1],
   };
   console.log(`growth after the first minute, MB: ${Object.entries(growth).map(([k, v]) => `${k.replace('_mb', '')} ${fmt(v, 2)}`).join(', ')}`);
 } catch (e) {
   check('the soak ran to its end', false, e.stack || String(e));
 } finally {
-  if (side) side.close();
-  if (context) await context.close().catch(() => {});
-  await stop(mirror);
-  await stop(sim);
-  await stop(robot);
-  fs.rmSync(dir, { recursive: true, force: true });
+  await stopChain(chain, context, mirror);
   if (samples.length) {
     const keys = Object.keys(samples[0]);
     fs.writeFileSync(path.join(out, 'soak.csv'),

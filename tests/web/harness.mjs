@@ -1,7 +1,9 @@
 // What the browser tests on real processes share: checks that count, free ports, child
 // processes with their output, and the emulated robot's side channel (commands and truth).
 import { spawn } from 'node:child_process';
+import fs from 'node:fs';
 import net from 'node:net';
+import os from 'node:os';
 import path from 'node:path';
 
 export const sleep = (ms) => new Promise((r) => setTimeout(r, ms));
@@ -120,3 +122,48 @@ export function jointsOfSteps(z, j2, j3) {
 
 export const chromiumArgs = ['--headless', '--no-sandbox', '--disable-gpu', '--disable-quic',
   '--no-first-run', '--disable-background-networking', '--disable-component-update', '--disable-sync'];
+
+// The real chain without its hub: the emulated robot (`robotArgs` added to its command line)
+// and the simulator serving its page on a free port, in a fresh temporary directory; the
+// robot's side channel connected (its truth samples off: `rate 0`). `links` are the options
+// that point a hub at both, recording into `db` (or nothing). Throws when something does not
+// come up; stopChain() ends what was started.
+export async function startChain(bin, { robotArgs = [], db = null } = {}) {
+  const chain = { dir: fs.mkdtempSync(path.join(os.tmpdir(), 'scaratwin-chain-')), procs: [] };
+  const pty = path.join(chain.dir, 'robot.pty');
+  chain.httpPort = await freePort();
+  chain.robot = start(bin, 'scaratwin-robot', ['--pty-link', pty, ...robotArgs]);
+  chain.sim = start(bin, 'scaratwin-sim', ['--port', '0', '--http-port', String(chain.httpPort), '--no-camera']);
+  chain.procs.push(chain.robot, chain.sim);
+  try {
+    await connectChain(chain, db);
+  } catch (e) {
+    await stopChain(chain);
+    throw e;
+  }
+  return chain;
+}
+
+async function connectChain(chain, db) {
+  const sideLine = await waitOutput(chain.robot, /side channel: 127\.0\.0\.1:(\d+)/, 30000);
+  const simLine = await waitOutput(chain.sim, /listening on 127\.0\.0\.1:(\d+)/, 30000);
+  const httpUp = await waitHttp(chain.httpPort, 30000);
+  if (!sideLine || !simLine || !httpUp) {
+    throw new Error(`the robot, the simulator or its page did not come up:\n${chain.robot.output}\n${chain.sim.output}`);
+  }
+  const pty = path.join(chain.dir, 'robot.pty');
+  chain.links = ['--serial', pty, '--sim', `127.0.0.1:${simLine[1]}`, ...(db ? ['--db', db] : ['--no-db'])];
+  chain.side = new Side(Number(sideLine[1]));
+  await chain.side.connect();
+  await chain.side.command('rate 0');
+}
+
+// Ends the browser `context` (if any), the processes in `more` (a hub), then the chain.
+export async function stopChain(chain, context, ...more) {
+  if (chain && chain.side) chain.side.close();
+  if (context) await context.close().catch(() => {});
+  for (const p of more) await stop(p);
+  if (!chain) return;
+  for (const p of chain.procs) await stop(p);
+  fs.rmSync(chain.dir, { recursive: true, force: true });
+}

@@ -9,13 +9,11 @@
 //        --node-modules <dir> [--chromium EXE]
 // Prints one line per check and "N passed, N failed"; exits non-zero on any failure.
 import { createRequire } from 'node:module';
-import fs from 'node:fs';
-import os from 'node:os';
 import path from 'node:path';
 
 import {
-  Side, check, chromiumArgs, freePort, jointsOfSteps, parseArgs, results, sleep, start as startIn,
-  stop, waitHttp, waitOutput,
+  check, chromiumArgs, jointsOfSteps, parseArgs, results, sleep, start as startIn, startChain,
+  stopChain,
 } from './harness.mjs';
 
 const args = parseArgs(process.argv.slice(2));
@@ -30,28 +28,13 @@ const require = createRequire(path.join(path.resolve(nodeModules), 'noop.js'));
 const { chromium } = require('playwright-core');
 const start = (exe, argv) => startIn(bin, exe, argv);
 
-const dir = fs.mkdtempSync(path.join(os.tmpdir(), 'scaratwin-chain-'));
-const pty = path.join(dir, 'robot.pty');
-let robot = null;
-let sim = null;
+let chain = null;
 let mirror = null;
 let context = null;
-let side = null;
 
 try {
-  const httpPort = await freePort();
-  robot = start('scaratwin-robot', ['--plant', 'ideal', '--pty-link', pty]);
-  sim = start('scaratwin-sim', ['--port', '0', '--http-port', String(httpPort), '--no-camera']);
-  const sideLine = await waitOutput(robot, /side channel: 127\.0\.0\.1:(\d+)/, 30000);
-  const simLine = await waitOutput(sim, /listening on 127\.0\.0\.1:(\d+)/, 30000);
-  const httpUp = await waitHttp(httpPort, 30000);
-  check('the robot, the simulator and its page are up', sideLine && simLine && httpUp,
-    `${robot.output} ${sim.output}`);
-  if (!sideLine || !simLine || !httpUp) throw new Error('not up');
-  const links = ['--serial', pty, '--sim', `127.0.0.1:${simLine[1]}`, '--no-db'];
-  side = new Side(Number(sideLine[1]));
-  await side.connect();
-  await side.command('rate 0');
+  chain = await startChain(bin, { robotArgs: ['--plant', 'ideal'] });
+  const { links, side, httpPort, dir } = chain;
 
   // the counts are the joints' only once homed
   const home = start('scaratwin', ['home', ...links]);
@@ -115,12 +98,7 @@ try {
 } catch (e) {
   check('test ran to the end', false, e.stack || String(e));
 } finally {
-  if (side) side.close();
-  if (context) await context.close().catch(() => {});
-  await stop(mirror);
-  await stop(sim);
-  await stop(robot);
-  fs.rmSync(dir, { recursive: true, force: true });
+  await stopChain(chain, context, mirror);
 }
 console.log(`${results.passed} passed, ${results.failed} failed`);
 process.exit(results.failed === 0 ? 0 : 1);
