@@ -12,6 +12,7 @@
 #include <optional>
 #include <string>
 
+#include "scaratwin/protocol/replies.hpp"
 #include "scaratwin/transport/io_thread.hpp"
 
 namespace scaratwin::transport {
@@ -30,55 +31,6 @@ std::optional<std::uint16_t> seq_of(const TcpToSim& m) {
   return std::nullopt;
 }
 std::optional<std::uint16_t> seq_of(const SerialToDevice&) { return std::nullopt; }
-
-enum class Match { kNo, kPartial, kFinal };
-
-// Whether `m` answers a request with `code` (and `seq` for JD/TJ).
-Match answers(const std::string& code, std::optional<std::uint16_t> seq, const TcpFromSim& m) {
-  return std::visit(
-      [&](const auto& v) -> Match {
-        using T = std::decay_t<decltype(v)>;
-        bool yes = false;
-        if constexpr (std::is_same_v<T, ErrorReply>) {
-          yes = true;
-        } else if constexpr (std::is_same_v<T, Ack>) {
-          yes = v.code == code;
-        } else if constexpr (std::is_same_v<T, PeerHello>) {
-          yes = code == "HI";
-        } else if constexpr (std::is_same_v<T, JointApplied>) {
-          yes = (code == "JD" || code == "TJ") && seq && *seq == v.seq;
-        } else if constexpr (std::is_same_v<T, GripperState>) {
-          yes = code == "GR";
-        } else if constexpr (std::is_same_v<T, Image>) {
-          yes = code == "CS";
-        } else if constexpr (std::is_same_v<T, ObjectPose>) {
-          return code == "OP" ? Match::kPartial : Match::kNo;
-        } else if constexpr (std::is_same_v<T, SimState>) {
-          yes = code == "QS";
-        }
-        return yes ? Match::kFinal : Match::kNo;
-      },
-      m);
-}
-
-Match answers(const std::string& code, std::optional<std::uint16_t>, const SerialFromDevice& m) {
-  return std::visit(
-      [&](const auto& v) -> Match {
-        using T = std::decay_t<decltype(v)>;
-        bool yes = false;
-        if constexpr (std::is_same_v<T, ErrorReply>) {
-          yes = true;
-        } else if constexpr (std::is_same_v<T, Ack>) {
-          yes = v.code == code;
-        } else if constexpr (std::is_same_v<T, PeerHello>) {
-          yes = code == "HI";
-        } else if constexpr (std::is_same_v<T, DeviceState>) {
-          yes = code == "QS";
-        }
-        return yes ? Match::kFinal : Match::kNo;
-      },
-      m);
-}
 
 std::optional<std::uint16_t> state_seq(const TcpFromSim& m) {
   if (const auto* st = std::get_if<SimState>(&m)) return st->seq;
@@ -317,18 +269,18 @@ struct Channel<Out, In>::State {
       if (auto seq = state_seq(msg)) link->add_lost_packets(tracker.observe(*seq));
       sweep(packet.steady_us, done);
       std::size_t i = 0;
-      Match match = Match::kNo;
+      ReplyMatch match = ReplyMatch::kNo;
       for (; i < pending.size(); ++i) {
-        match = answers(pending[i]->code, pending[i]->seq, msg);
-        if (match != Match::kNo || !pending[i]->abandoned) break;
+        match = reply_match(pending[i]->code, pending[i]->seq, msg);
+        if (match != ReplyMatch::kNo || !pending[i]->abandoned) break;
       }
-      if (i < pending.size() && match != Match::kNo) {
+      if (i < pending.size() && match != ReplyMatch::kNo) {
         routed = true;
         for (std::size_t k = 0; k < i; ++k) pop_front_pending();  // timed out before it
         EntryPtr e = pending.front();
         e->reply.rx_steady_us = packet.steady_us;
         e->reply.rx_system_us = packet.system_us;
-        if (match == Match::kPartial) {
+        if (match == ReplyMatch::kPartial) {
           e->reply.messages.push_back(std::move(msg));
         } else {
           pop_front_pending();

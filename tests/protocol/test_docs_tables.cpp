@@ -14,6 +14,7 @@
 #include <vector>
 
 #include "scaratwin/protocol/codec_core.h"
+#include "scaratwin/protocol/replies.hpp"
 
 namespace scaratwin::protocol {
 namespace {
@@ -27,6 +28,7 @@ struct DocField {
 struct DocRow {
   std::string code;
   std::vector<DocField> fields;
+  std::string reply;  // the "reply" cell of a request table, else empty
 };
 
 std::string read_docs() {
@@ -121,9 +123,13 @@ std::vector<DocRow> table_after(const std::string& docs, const std::string& head
   std::istringstream in(docs.substr(at + heading.size() + 2));
   std::string line;
   bool in_table = false;
+  bool has_reply = false;
   while (std::getline(in, line)) {
     if (!in_table) {
-      if (line.rfind("| code |", 0) == 0) in_table = true;
+      if (line.rfind("| code |", 0) == 0) {
+        in_table = true;
+        has_reply = line.find("| reply |") != std::string::npos;
+      }
       if (line.rfind("#", 0) == 0) break;
       continue;
     }
@@ -137,6 +143,7 @@ std::vector<DocRow> table_after(const std::string& docs, const std::string& head
       r.code = r.code.substr(1, 2);
     }
     r.fields = parse_fields(cells[1]);
+    if (has_reply && cells.size() >= 4) r.reply = cells[3];
     rows.push_back(r);
   }
   return rows;
@@ -190,6 +197,90 @@ void expect_agree(const std::string& heading, const core::LinkSpec& link) {
           << code << " field " << i << " ('" << fields[i].text << "')";
     }
   }
+}
+
+// The packets a reply cell names before "later" (events that follow): "`AK,OP,count,`" ->
+// "AK,OP,count,".
+std::vector<std::string> replies_named(const std::string& cell) {
+  std::vector<std::string> out;
+  const std::string head = cell.substr(0, cell.find("later"));
+  for (std::size_t at = head.find('`'); at != std::string::npos;) {
+    const std::size_t end = head.find('`', at + 1);
+    if (end == std::string::npos) break;
+    out.push_back(head.substr(at + 1, end - at - 1));
+    at = head.find('`', end + 1);
+  }
+  return out;
+}
+
+// The docs' reply column against the reply table (scaratwin/protocol/replies.hpp): every
+// packet a request's cell names is an AK of that request or a row of the table for it, every
+// row is named in its request's cell, and a request answered in several parts also names the
+// AK that ends them.
+void expect_replies_agree(const std::string& heading, std::span<const ReplyRule> rules,
+                          char delimiter) {
+  SCOPED_TRACE("docs/protocol.md, " + heading + ", the reply column");
+  const std::vector<DocRow> rows = table_after(read_docs(), heading);
+  ASSERT_FALSE(rows.empty());
+  for (const DocRow& row : rows) {
+    const std::vector<std::string> named = replies_named(row.reply);
+    EXPECT_FALSE(named.empty()) << row.code << ": no reply named in '" << row.reply << "'";
+    bool acked = false;
+    for (const std::string& n : named) {
+      const std::string code = n.substr(0, 2);
+      if (code == "AK") {
+        acked = true;
+        EXPECT_EQ(n.substr(2, 4), std::string{delimiter} + row.code + delimiter)
+            << row.code << ": '" << n << "' acknowledges another request";
+        continue;
+      }
+      bool ruled = false;
+      for (const ReplyRule& r : rules) ruled = ruled || (r.request == row.code && r.reply == code);
+      EXPECT_TRUE(ruled) << row.code << ": the docs name '" << n
+                         << "' as a reply, the reply table does not";
+    }
+    for (const ReplyRule& r : rules) {
+      if (r.request != row.code) continue;
+      bool documented = false;
+      for (const std::string& n : named) documented = documented || n.substr(0, 2) == r.reply;
+      EXPECT_TRUE(documented) << row.code << ": the reply table has " << r.reply
+                              << ", the docs do not name it in '" << row.reply << "'";
+      if (r.partial) {
+        EXPECT_TRUE(acked) << row.code << ": answered in parts, but no AK ends them";
+      }
+    }
+  }
+  for (const ReplyRule& r : rules) {
+    bool found = false;
+    for (const DocRow& row : rows) found = found || row.code == r.request;
+    EXPECT_TRUE(found) << "the reply table answers " << r.request << ", a request not documented";
+  }
+}
+
+TEST(ProtocolDocs, TheRepliesAreTheReplyTables) {
+  expect_replies_agree("### hub -> simulator", tcp_reply_rules(), ',');
+  expect_replies_agree("### host -> device", serial_reply_rules(), '=');
+}
+
+// The reply table against packets built here: a JA answers only its own JD, an OP is one of
+// several answers to OP, an ER answers anything, an AK only its own request, an event nothing.
+TEST(ProtocolReplies, EachPacketAnswersOnlyTheRequestItBelongsTo) {
+  const JointApplied ja{7, 100, 0};
+  EXPECT_EQ(reply_match("JD", 7, TcpFromSim{ja}), ReplyMatch::kFinal);
+  EXPECT_EQ(reply_match("TJ", 7, TcpFromSim{ja}), ReplyMatch::kFinal);
+  EXPECT_EQ(reply_match("JD", 8, TcpFromSim{ja}), ReplyMatch::kNo);
+  EXPECT_EQ(reply_match("QS", std::nullopt, TcpFromSim{ja}), ReplyMatch::kNo);
+  EXPECT_EQ(reply_match("OP", std::nullopt, TcpFromSim{ObjectPose{}}), ReplyMatch::kPartial);
+  EXPECT_EQ(reply_match("OP", std::nullopt, TcpFromSim{Ack{"OP", 3}}), ReplyMatch::kFinal);
+  EXPECT_EQ(reply_match("SP", std::nullopt, TcpFromSim{Ack{"OP", 3}}), ReplyMatch::kNo);
+  EXPECT_EQ(reply_match("CS", std::nullopt, TcpFromSim{ErrorReply{11, 0}}), ReplyMatch::kFinal);
+  EXPECT_EQ(reply_match("QS", std::nullopt, TcpFromSim{SimState{}}), ReplyMatch::kFinal);
+  EXPECT_EQ(reply_match("GR", std::nullopt, TcpFromSim{JointWarning{}}), ReplyMatch::kNo);
+  EXPECT_EQ(reply_match("QS", std::nullopt, SerialFromDevice{DeviceState{}}), ReplyMatch::kFinal);
+  EXPECT_EQ(reply_match("HM", std::nullopt, SerialFromDevice{DeviceEvent{}}), ReplyMatch::kNo);
+  EXPECT_EQ(reply_match("HI", std::nullopt, SerialFromDevice{PeerHello{}}), ReplyMatch::kFinal);
+  EXPECT_EQ(code_of(SerialFromDevice{DeviceEvent{}}), "EV");
+  EXPECT_EQ(code_of(TcpFromSim{Image{}}), "IM");
 }
 
 TEST(ProtocolDocs, TheVirtualLinksTablesAreTheCodeTables) {
