@@ -3,10 +3,11 @@
 # test installs the Debian packages on this machine: CI is root); checks that CMake's default
 # generator (Unix Makefiles, the presets use Ninja) builds the parts with custom build steps:
 # the browser page (npm ci), the generated firmware header and the firmware
-# (SCARATWIN_TEST_MAKE=0 skips that check); and coverage (scripts/coverage.sh).
+# (SCARATWIN_TEST_MAKE=0 skips that check); coverage (scripts/coverage.sh); and the transports
+# and channels under ThreadSanitizer (SCARATWIN_TEST_TSAN=0 skips them).
 # CI has two cores and most suites run alone, paced to the wall clock, leaving a core free:
-# the demo's test runs beside the end of the build, coverage and the Makefile build beside
-# the suites, each extra job at idle priority (chrt --idle).
+# the demo's test runs beside the end of the build; coverage, the Makefile build and the
+# ThreadSanitizer build beside the suites, each extra job at idle priority (chrt --idle).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 scripts/install-deps.sh
@@ -72,6 +73,13 @@ background() {
       -DSCARATWIN_BUILD_BENCH=OFF -DSCARATWIN_WERROR=ON
     cmake --build build/ci-make -j "$jobs" --target scaratwin_web_assets firmware
   fi
+  # ThreadSanitizer build of the transports and channels (the `tsan` preset); their tests run
+  # after the suites (SCARATWIN_TEST_TSAN=0 skips both; docs/benchmarks.md has the hand-run
+  # set, which adds the web server, the hub and the fault matrix)
+  if [[ "${SCARATWIN_TEST_TSAN:-1}" != 0 ]]; then
+    cmake --preset tsan >/dev/null
+    cmake --build --preset tsan -j "$jobs" --target test_transport test_statements
+  fi
 }
 # its own process group (set -m), so that an interrupted run stops all of it
 set -m
@@ -88,8 +96,16 @@ suites=0
 ctest --preset ci -j "$jobs" -LE long -E "$first_test" || suites=$?
 if [[ $suites != 0 ]]; then failures+=("the test suites: ctest exit $suites"); fi
 
-collect "coverage and the Makefile build" "$background_pid" "$background_log"
+collect "coverage, the Makefile build and the ThreadSanitizer build" "$background_pid" \
+  "$background_log"
 trap - EXIT
+# the transports and channels under ThreadSanitizer (the preset sets TSAN_OPTIONS:
+# halt_on_error=1, so a report fails its test)
+if [[ "${SCARATWIN_TEST_TSAN:-1}" != 0 ]]; then
+  ctest --preset tsan --no-tests=error \
+    -R '^(LineSplitter|Tcp|IoThread|Serial|SequenceTracker|LinkCounters|Statements|Channel)\.' ||
+    failures+=("the ThreadSanitizer tests of the transports and channels")
+fi
 if ((${#failures[@]})); then
   printf 'error: %s\n' "${failures[@]}" >&2
   exit 1
