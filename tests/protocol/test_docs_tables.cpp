@@ -155,10 +155,14 @@ std::string code_text(std::uint16_t id) {
 
 const char* kind_text(core::FieldKind k) {
   switch (k) {
-    case core::kFieldI32: return "i32";
-    case core::kFieldU32: return "u32";
-    case core::kFieldDec: return "dec";
-    case core::kFieldText: return "text";
+    case core::kFieldI32:
+      return "i32";
+    case core::kFieldU32:
+      return "u32";
+    case core::kFieldDec:
+      return "dec";
+    case core::kFieldText:
+      return "text";
   }
   return "?";
 }
