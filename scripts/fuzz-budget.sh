@@ -8,7 +8,7 @@
 #
 # Usage: scripts/fuzz-budget.sh [--runs N] [--core C] [--out DIR] [--summary-only] [TARGET...]
 #   TARGET: codec_core serial_to_device serial_from_device tcp_to_sim tcp_from_sim script
-#           robot_config firmware_commands (default: all of them)
+#           robot_config companion firmware_commands (default: all of them)
 #   --runs N        executions per target (default 10000000)
 #   --core C        the core to pin each run to (default 1)
 #   --out DIR       new inputs and logs (default /tmp/scaratwin-fuzz); the saved corpus in
@@ -17,7 +17,7 @@
 set -euo pipefail
 cd "$(dirname "$0")/.."
 all=(codec_core serial_to_device serial_from_device tcp_to_sim tcp_from_sim script robot_config
-  firmware_commands)
+  companion firmware_commands)
 runs=10000000
 core=1
 out=/tmp/scaratwin-fuzz
