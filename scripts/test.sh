@@ -3,8 +3,8 @@
 # test installs the Debian packages on this machine: CI is root); checks that CMake's default
 # generator (Unix Makefiles, the presets use Ninja) builds the parts with custom build steps:
 # the browser page (npm ci), the generated firmware header and the firmware
-# (SCARATWIN_TEST_MAKE=0 skips that check); coverage (scripts/coverage.sh); and the transports
-# and channels under ThreadSanitizer (SCARATWIN_TEST_TSAN=0 skips them).
+# (SCARATWIN_TEST_MAKE=0 skips that check); coverage (scripts/coverage.sh); and the transports,
+# channels, web server and hub under ThreadSanitizer (SCARATWIN_TEST_TSAN=0 skips them).
 # CI has two cores and most suites run alone, paced to the wall clock, leaving a core free:
 # the demo's test runs beside the end of the build; coverage, the Makefile build and the
 # ThreadSanitizer build beside the suites, each extra job at idle priority (chrt --idle).
@@ -73,12 +73,15 @@ background() {
       -DSCARATWIN_BUILD_BENCH=OFF -DSCARATWIN_WERROR=ON
     cmake --build build/ci-make -j "$jobs" --target scaratwin_web_assets firmware
   fi
-  # ThreadSanitizer build of the transports and channels (the `tsan` preset); their tests run
-  # after the suites (SCARATWIN_TEST_TSAN=0 skips both; docs/benchmarks.md has the hand-run
-  # set, which adds the web server, the hub and the fault matrix)
+  # ThreadSanitizer build of the transports and channels, the web server and the hub (the
+  # `tsan` preset); their tests run after the suites (SCARATWIN_TEST_TSAN=0 skips both). The
+  # hub's tests start the ci build's simulator and emulated robot (SCARATWIN_TEST_PEERS_DIR):
+  # the hub is checked in the test's own process. docs/benchmarks.md has the hand-run set,
+  # which adds those programs and the fault matrix built with ThreadSanitizer.
   if [[ "${SCARATWIN_TEST_TSAN:-1}" != 0 ]]; then
-    cmake --preset tsan >/dev/null
-    cmake --build --preset tsan -j "$jobs" --target test_transport test_statements
+    cmake --preset tsan -DSCARATWIN_TEST_PEERS_DIR="$PWD/build/ci/bin" >/dev/null
+    cmake --build --preset tsan -j "$jobs" --target test_transport test_statements test_web \
+      test_fake_robot test_hub_robots
   fi
 }
 # its own process group (set -m), so that an interrupted run stops all of it
@@ -99,12 +102,14 @@ if [[ $suites != 0 ]]; then failures+=("the test suites: ctest exit $suites"); f
 collect "coverage, the Makefile build and the ThreadSanitizer build" "$background_pid" \
   "$background_log"
 trap - EXIT
-# the transports and channels under ThreadSanitizer (the preset sets TSAN_OPTIONS:
-# halt_on_error=1, so a report fails its test)
+# the transports and channels, the web server and the hub under ThreadSanitizer (the preset
+# sets TSAN_OPTIONS: halt_on_error=1, so a report fails its test); the hub's tests with a real
+# simulator run alone (RUN_SERIAL)
 if [[ "${SCARATWIN_TEST_TSAN:-1}" != 0 ]]; then
-  ctest --preset tsan --no-tests=error \
-    -R '^(LineSplitter|Tcp|IoThread|Serial|SequenceTracker|LinkCounters|Statements|Channel)\.' ||
-    failures+=("the ThreadSanitizer tests of the transports and channels")
+  tsan_suites='LineSplitter|Tcp|IoThread|Serial|SequenceTracker|LinkCounters|Statements|Channel'
+  tsan_suites+='|WebServer|HttpTest|Feed|Commands|FakeRobotTest|FakeRobotHub|HubRobots'
+  ctest --preset tsan --no-tests=error -j "$jobs" -R "^(${tsan_suites})\\." ||
+    failures+=("the ThreadSanitizer tests of the transports, the web server and the hub")
 fi
 if ((${#failures[@]})); then
   printf 'error: %s\n' "${failures[@]}" >&2
