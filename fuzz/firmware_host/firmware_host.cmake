@@ -2,9 +2,17 @@
 # firmware's sources compiled against the register shims in fuzz/firmware_host/avr (each
 # with fw_host_state.h first), and the harness that runs them. Used by the fuzz target
 # (fuzz/CMakeLists.txt: clang, instrumented) and by the corpus replay (tests/firmware: the
-# normal compiler). `options`: extra compile options (sanitizers, coverage). The codec core
-# the firmware shares with the host comes with the protocol sources the user links.
+# normal compiler). `options`: extra compile options (sanitizers, coverage) of the firmware's
+# sources; the harness takes the optional third argument's instead (the fuzz target: sanitizers
+# without the fuzzer's coverage, so that its time goes to the firmware), else `options` too.
+# The codec core the firmware shares with the host comes with the protocol sources the user
+# links.
 function(scaratwin_firmware_host name options)
+  if(ARGC GREATER 2)
+    set(harness_options ${ARGV2})
+  else()
+    set(harness_options ${options})
+  endif()
   set(fw ${PROJECT_SOURCE_DIR}/firmware/src)
   set(host ${PROJECT_SOURCE_DIR}/fuzz/firmware_host)
   add_library(${name}_firmware STATIC
@@ -27,7 +35,7 @@ function(scaratwin_firmware_host name options)
   target_include_directories(${name} PRIVATE ${fw} ${SCARATWIN_FW_GENERATED_DIR}
     ${PROJECT_SOURCE_DIR}/src/robot ${PROJECT_SOURCE_DIR}/include)
   target_include_directories(${name} INTERFACE ${PROJECT_SOURCE_DIR}/fuzz)
-  target_compile_options(${name} PRIVATE ${options})
+  target_compile_options(${name} PRIVATE ${harness_options})
   target_link_libraries(${name} PRIVATE scaratwin::core PUBLIC ${name}_firmware)
   add_dependencies(${name} fw_description)
 endfunction()

@@ -1,6 +1,7 @@
 // The firmware's command handling built for the host: see firmware_host.hpp.
 #include "firmware_host.hpp"
 
+#include <algorithm>
 #include <cstring>
 #include <string_view>
 #include <vector>
@@ -33,8 +34,7 @@ constexpr std::uint64_t kWaitUs = 20000;
 
 #if defined(__clang__)
 // Byte copies that ASan does not check: the sections hold the globals' redzones too.
-__attribute__((no_sanitize("address"))) void copy_bytes(char* to, const char* from,
-                                                         std::size_t n) {
+__attribute__((no_sanitize("address"))) void copy_bytes(char* to, const char* from, std::size_t n) {
   for (std::size_t i = 0; i < n; ++i) static_cast<volatile char*>(to)[i] = from[i];
 }
 
@@ -119,18 +119,27 @@ class Host {
   void advance(std::uint64_t us) {
     const std::uint64_t end = now_us_ + us;
     while (now_us_ < end) {
-      now_us_ += kTickUs;
+      if (step_timer_runs()) {
+        now_us_ += kTickUs;
+      } else {
+        // the step timer stopped: until the clock's next overflow (or the end), no code of the
+        // firmware runs and no pin changes, so those ticks are taken in one stride (the same
+        // ticks, landing where tick by tick would)
+        const std::uint64_t to = std::min(end, next_overflow_us_);
+        now_us_ += std::max<std::uint64_t>(1, (to - now_us_ + kTickUs - 1) / kTickUs) * kTickUs;
+      }
       TCNT0 = static_cast<std::uint8_t>((now_us_ % 1024) / 4);
       while (now_us_ >= next_overflow_us_) {
         next_overflow_us_ += 1024;
         if (TIMSK0 & (1u << TOIE0)) fw_isr_TIMER0_OVF_vect();
       }
-      if (TCCR2B != 0 && (TIMSK2 & (1u << OCIE2A))) {
+      if (step_timer_runs()) {
         fw_isr_TIMER2_COMPA_vect();
         pins();
       }
     }
   }
+  static bool step_timer_runs() { return TCCR2B != 0 && (TIMSK2 & (1u << OCIE2A)); }
   void pins() {
     const std::uint8_t d = PORTD;
     for (int a = 0; a < robot::kAxes; ++a) {
