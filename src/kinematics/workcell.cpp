@@ -68,9 +68,28 @@ Vec3 world_to_base(const BasePose& b, const Vec3& p) {
 
 std::array<Vec3, 5> home_arm_points(const Workcell& w, int robot) {
   SCARATWIN_CHECK(robot >= 0 && robot < static_cast<int>(w.robots.size()), "robot index");
+  return arm_points(w, robot, w.robots[robot].model.home);
+}
+
+double arm_distance(const Workcell& w, int a, const JointVector& q_a, int b,
+                    const JointVector& q_b) {
+  const auto pa = arm_points(w, a, q_a);
+  const auto pb = arm_points(w, b, q_b);
+  double closest = INFINITY;
+  for (std::size_t s = 0; s + 1 < pa.size(); ++s) {
+    for (std::size_t t = 0; t + 1 < pb.size(); ++t) {
+      closest =
+          std::min(closest, segment_segment({pa[s][0], pa[s][1]}, {pa[s + 1][0], pa[s + 1][1]},
+                                            {pb[t][0], pb[t][1]}, {pb[t + 1][0], pb[t + 1][1]}));
+    }
+  }
+  return closest;
+}
+
+std::array<Vec3, 5> arm_points(const Workcell& w, int robot, const JointVector& q) {
+  SCARATWIN_CHECK(robot >= 0 && robot < static_cast<int>(w.robots.size()), "robot index");
   const RobotInstance& r = w.robots[robot];
   const auto& dh = r.model.dh;
-  const JointVector& q = r.model.home;
   // the planar DH chain (a SCARA has alpha = 0): heading and position of each joint axis
   std::array<Vec3, 5> p{};
   double heading = dh[0].theta_rad;
@@ -141,14 +160,8 @@ Status validate(const Workcell& w) {
       }
       const auto pa = home_arm_points(w, static_cast<int>(i));
       const auto pb = home_arm_points(w, static_cast<int>(j));
-      double closest = INFINITY;
-      for (std::size_t s = 0; s + 1 < pa.size(); ++s) {
-        for (std::size_t t = 0; t + 1 < pb.size(); ++t) {
-          closest = std::min(closest,
-                             segment_segment({pa[s][0], pa[s][1]}, {pa[s + 1][0], pa[s + 1][1]},
-                                             {pb[t][0], pb[t][1]}, {pb[t + 1][0], pb[t + 1][1]}));
-        }
-      }
+      const double closest =
+          arm_distance(w, static_cast<int>(i), a.model.home, static_cast<int>(j), b.model.home);
       if (closest < kMinArmDistanceM) {
         return invalid(fmt::format(
             "robots '{}' and '{}': their arms at home come {:.1f} mm close seen from above "

@@ -63,6 +63,7 @@ enum class PlanError : int {
   kMotorLimit = 12,     // a requested duration too short for a motor's speed or acceleration
   kUnreachable = 13,    // a Cartesian sample has no IK solution (the message says which)
   kDiscontinuous = 14,  // a Cartesian path would need a jump of the joints (elbow flip, wrap)
+  kCollision = 15,      // two arms of a workcell would come closer than the clearance
 };
 
 // The robot description (kinematics/robot_model.hpp, config/robot_config.hpp) and the workcell

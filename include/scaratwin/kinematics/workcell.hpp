@@ -66,9 +66,19 @@ Result<int> robot_index(const Workcell& workcell, std::string_view name);
 std::array<double, 3> base_to_world(const BasePose& base, const std::array<double, 3>& p_B);
 std::array<double, 3> world_to_base(const BasePose& base, const std::array<double, 3>& p_W);
 
-// The points of robot `robot`'s arm at its home pose, in W (m): base, shoulder (J2 axis),
-// elbow (J3 axis), wrist (J4 axis), tool, at the height of their DH frames.
+// The points of robot `robot`'s arm at joints `q` (m, rad), in W (m): base, shoulder (J2
+// axis), elbow (J3 axis), wrist (J4 axis), tool, at the height of their DH frames.
+std::array<std::array<double, 3>, 5> arm_points(const Workcell& workcell, int robot,
+                                                const JointVector& q);
+// The same at the robot's home pose.
 std::array<std::array<double, 3>, 5> home_arm_points(const Workcell& workcell, int robot);
+
+// The distance (m) between robot a's arm at q_a and robot b's at q_b seen from above: the
+// closest approach of their base -> shoulder -> elbow -> wrist -> tool polylines in W's xy
+// plane (0 when they cross). A SCARA's links sweep the same band of heights, so two arms that
+// meet seen from above collide.
+double arm_distance(const Workcell& workcell, int a, const JointVector& q_a, int b,
+                    const JointVector& q_b);
 
 // Robot `robot`'s description with the workcell's scene expressed in its base frame: table,
 // grasp height, trays' centres, the camera (its image turns with the base: a camera looking
