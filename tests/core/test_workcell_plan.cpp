@@ -1,0 +1,188 @@
+// Two arms sorting together (trajectory/workcell_plan.hpp): who takes what, worked out by hand
+// from the arms' reach; and the plan's timelines against an oracle of their own: the paper's
+// closed-form arm (DESIGN.md) looked at every millisecond for the clearance, and the tool over
+// each pick when the gripper closes and over each place when it opens.
+#include <gtest/gtest.h>
+
+#include <array>
+#include <cmath>
+
+#include "scaratwin/core/error_codes.hpp"
+#include "scaratwin/core/units.hpp"
+#include "scaratwin/trajectory/workcell_plan.hpp"
+
+namespace scaratwin {
+namespace {
+
+using P = std::array<double, 2>;
+
+// config/two_arms.toml's layout: "left" at the origin, "right" at (400, 200) mm turned 180 deg.
+Workcell two_arms() {
+  Workcell w = single_robot_workcell(paper_robot());
+  w.robots[0].name = "left";
+  w.robots.push_back(
+      RobotInstance{"right", BasePose{0.4, 0.2, 0.0, deg_to_rad(180.0)}, paper_robot(), ""});
+  return w;
+}
+
+// The oracle's arm seen from above in W (base, shoulder, elbow, wrist) and its tool (x, y, z).
+std::array<P, 4> arm(const BasePose& b, const JointVector& q) {
+  const double a1 = 0.067, a2 = 0.092, a3 = 0.095;
+  const std::array<P, 4> l = {P{0.0, 0.0}, P{a1, 0.0},
+                              P{a1 + a2 * std::cos(q[1]), a2 * std::sin(q[1])},
+                              P{a1 + a2 * std::cos(q[1]) + a3 * std::cos(q[1] + q[2]),
+                                a2 * std::sin(q[1]) + a3 * std::sin(q[1] + q[2])}};
+  std::array<P, 4> out{};
+  const double c = std::cos(b.yaw_rad), s = std::sin(b.yaw_rad);
+  for (int i = 0; i < 4; ++i) {
+    out[i] = {b.x_m + c * l[i][0] - s * l[i][1], b.y_m + s * l[i][0] + c * l[i][1]};
+  }
+  return out;
+}
+std::array<double, 3> tool(const BasePose& b, const JointVector& q) {
+  const P w = arm(b, q)[3];
+  return {w[0], w[1], b.z_m + q[0] - 0.067};
+}
+// Distance from point p to segment ab; between two arms, the least over their links' ends and
+// links (enough for links that do not cross: the test also checks they never do).
+double point_segment(P p, P a, P b) {
+  const double dx = b[0] - a[0], dy = b[1] - a[1], l2 = dx * dx + dy * dy;
+  const double t =
+      l2 > 0 ? std::clamp(((p[0] - a[0]) * dx + (p[1] - a[1]) * dy) / l2, 0.0, 1.0) : 0.0;
+  return std::hypot(p[0] - a[0] - t * dx, p[1] - a[1] - t * dy);
+}
+bool cross(P a, P b, P c, P d) {
+  const auto side = [](P o, P p, P q) {
+    return (p[0] - o[0]) * (q[1] - o[1]) - (p[1] - o[1]) * (q[0] - o[0]);
+  };
+  return side(a, b, c) * side(a, b, d) < 0 && side(c, d, a) * side(c, d, b) < 0;
+}
+double oracle_distance(const Workcell& w, const JointVector& qa, const JointVector& qb) {
+  const auto a = arm(w.robots[0].base, qa), b = arm(w.robots[1].base, qb);
+  double d = INFINITY;
+  for (int i = 0; i < 3; ++i) {
+    for (int k = 0; k < 3; ++k) {
+      if (cross(a[i], a[i + 1], b[k], b[k + 1])) return 0.0;
+      d = std::min({d, point_segment(a[i], b[k], b[k + 1]), point_segment(a[i + 1], b[k], b[k + 1]),
+                    point_segment(b[k], a[i], a[i + 1]), point_segment(b[k + 1], a[i], a[i + 1])});
+    }
+  }
+  return d;
+}
+
+WorkcellTask task(const char* what, double px, double py, double qx, double qy) {
+  return WorkcellTask{what, ToolPose{px / 1000, py / 1000, -0.02, 0.0},
+                      ToolPose{qx / 1000, qy / 1000, -0.02, 0.0}};
+}
+
+// Checks a plan against the oracle: the clearance every millisecond, each task's grip over its
+// pick and release over its place, and each task on the robot it was given to.
+void expect_plan_keeps_its_promises(const Workcell& w, const std::vector<WorkcellTask>& tasks,
+                                    const WorkcellPlan& plan, double clearance_m) {
+  ASSERT_EQ(plan.timeline.size(), 2u);
+  double least = INFINITY;
+  for (double t = 0.0; t <= plan.makespan_s + 1e-9; t += 0.001) {
+    least = std::min(
+        least, oracle_distance(w, sample_at(plan.timeline[0], t), sample_at(plan.timeline[1], t)));
+  }
+  EXPECT_GE(least, clearance_m) << "the arms came " << least * 1e3 << " mm close";
+  EXPECT_FALSE(plan.clearance.first.has_value());
+  ASSERT_EQ(plan.tasks.size(), tasks.size());
+  for (const PlannedTask& pt : plan.tasks) {
+    const BasePose& b = w.robots[pt.robot].base;
+    ASSERT_EQ(pt.trajectory.events.size(), 2u) << tasks[pt.task].what;
+    const auto grip = tool(b, sample_at(pt.trajectory, pt.trajectory.events[0].t_s));
+    const auto release = tool(b, sample_at(pt.trajectory, pt.trajectory.events[1].t_s));
+    const ToolPose& pick = tasks[pt.task].pick_W;
+    const ToolPose& place = tasks[pt.task].place_W;
+    EXPECT_NEAR(grip[0], pick.x_m, 1e-4) << tasks[pt.task].what;
+    EXPECT_NEAR(grip[1], pick.y_m, 1e-4) << tasks[pt.task].what;
+    EXPECT_NEAR(grip[2], pick.z_m, 1e-4) << tasks[pt.task].what;
+    EXPECT_NEAR(release[0], place.x_m, 1e-4) << tasks[pt.task].what;
+    EXPECT_NEAR(release[1], place.y_m, 1e-4) << tasks[pt.task].what;
+    // and the robot's timeline holds the task where it was scheduled
+    const JointVector on_timeline =
+        sample_at(plan.timeline[pt.robot], pt.start_s + pt.trajectory.events[0].t_s);
+    const JointVector in_task = sample_at(pt.trajectory, pt.trajectory.events[0].t_s);
+    for (int j = 0; j < kNumJoints; ++j) EXPECT_NEAR(on_timeline[j], in_task[j], 1e-9);
+    EXPECT_EQ(pt.robot, plan.robot_of_task[pt.task]);
+  }
+}
+
+// Reach from each shoulder ((67, 0) mm for left, (333, 200) mm for right) at most 187 mm:
+// A and C only left's (C's pick both's, its place only left's), B only right's, D both's (the
+// fewest tasks so far then: right). Without the reach, C would go to right (fewer tasks).
+TEST(WorkcellPlan, EachTaskGoesToARobotThatReachesIt) {
+  const Workcell w = two_arms();
+  const std::vector<WorkcellTask> tasks = {
+      task("A", 180, 60, 150, -80), task("C", 200, 100, 130, 60), task("B", 230, 140, 260, 280),
+      task("D", 200, 100, 190, 90)};
+  auto got = assign_by_reach(w, tasks);
+  ASSERT_TRUE(got.ok()) << got.error().message;
+  EXPECT_EQ(*got, (std::vector<int>{0, 0, 1, 1}));
+}
+
+TEST(WorkcellPlan, TwoArmsWorkAtOnceAndKeepApart) {
+  const Workcell w = two_arms();
+  const std::vector<WorkcellTask> tasks = {
+      task("A", 180, 60, 150, -80), task("B", 230, 140, 260, 280), task("C", 200, 100, 130, 60),
+      task("D", 200, 100, 190, 90)};
+  WorkcellPlanOptions o;
+  auto plan = plan_workcell_sort(w, tasks, {paper_robot().home, paper_robot().home}, o);
+  ASSERT_TRUE(plan.ok()) << plan.error().message;
+  expect_plan_keeps_its_promises(w, tasks, *plan, o.clearance.clearance_m);
+  // A and B at the same time: both start at 0
+  EXPECT_EQ(plan->tasks[0].start_s, 0.0);
+  EXPECT_EQ(plan->tasks[1].start_s, 0.0);
+  double serial = 0.0;
+  for (const PlannedTask& pt : plan->tasks) serial += pt.trajectory.duration_s();
+  EXPECT_LT(plan->makespan_s, serial);
+  // both end at home
+  for (int r = 0; r < 2; ++r) {
+    const JointVector end = plan->timeline[r].samples.back().q;
+    for (int j = 0; j < kNumJoints; ++j) EXPECT_NEAR(end[j], paper_robot().home[j], 1e-9);
+  }
+}
+
+// Both arms into the gap between them at once: the second waits until the first is out.
+TEST(WorkcellPlan, AnArmThatWouldMeetTheOtherWaits) {
+  const Workcell w = two_arms();
+  // picks 14 mm apart in the gap, places each arm's own
+  const std::vector<WorkcellTask> tasks = {task("into the gap (left)", 205, 95, 150, -80),
+                                           task("into the gap (right)", 195, 105, 260, 280)};
+  WorkcellPlanOptions o;
+  auto plan = plan_workcell_sort(w, tasks, {paper_robot().home, paper_robot().home}, o);
+  ASSERT_TRUE(plan.ok()) << plan.error().message;
+  ASSERT_EQ(plan->robot_of_task, (std::vector<int>{0, 1}));
+  expect_plan_keeps_its_promises(w, tasks, *plan, o.clearance.clearance_m);
+  // at once they would meet (the oracle says so), so the right arm starts later
+  double least = INFINITY;
+  const PlannedTask& a = plan->tasks[0];
+  const PlannedTask& b = plan->tasks[1];
+  for (double t = 0.0; t <= std::max(a.trajectory.duration_s(), b.trajectory.duration_s());
+       t += 0.001) {
+    least =
+        std::min(least, oracle_distance(w, sample_at(a.trajectory, t), sample_at(b.trajectory, t)));
+  }
+  EXPECT_LT(least, o.clearance.clearance_m);
+  EXPECT_EQ(a.start_s, 0.0);
+  EXPECT_GT(b.start_s, 0.0);
+}
+
+TEST(WorkcellPlan, RefusesWhatNoRobotReachesAndABadStart) {
+  const Workcell w = two_arms();
+  auto far = plan_workcell_sort(w, {task("blue cube 2", 600, -300, 150, -80)},
+                                {paper_robot().home, paper_robot().home});
+  ASSERT_FALSE(far.ok());
+  EXPECT_EQ(far.error().code, static_cast<int>(PlanError::kUnreachable));
+  EXPECT_EQ(far.error().message,
+            "blue cube 2: no robot reaches both its pick at (600.0, -300.0) mm and its place at "
+            "(150.0, -80.0) mm (robots: 'left', 'right')");
+  auto one = plan_workcell_sort(w, {}, {paper_robot().home});
+  ASSERT_FALSE(one.ok());
+  EXPECT_EQ(one.error().code, static_cast<int>(PlanError::kBadArgument));
+  EXPECT_EQ(one.error().message, "workcell plan: 1 start poses for a workcell of 2 robots");
+}
+
+}  // namespace
+}  // namespace scaratwin
