@@ -7,6 +7,7 @@
 #include <array>
 #include <cmath>
 
+#include "arm_oracle.hpp"
 #include "scaratwin/core/error_codes.hpp"
 #include "scaratwin/core/units.hpp"
 #include "scaratwin/trajectory/workcell_plan.hpp"
@@ -14,61 +15,11 @@
 namespace scaratwin {
 namespace {
 
-using P = std::array<double, 2>;
+using test::oracle_distance;
+using test::oracle_tool;
 
 // config/two_arms.toml's layout: "left" at the origin, "right" at (400, 200) mm turned 180 deg.
-Workcell two_arms() {
-  Workcell w = single_robot_workcell(paper_robot());
-  w.robots[0].name = "left";
-  w.robots.push_back(
-      RobotInstance{"right", BasePose{0.4, 0.2, 0.0, deg_to_rad(180.0)}, paper_robot(), ""});
-  return w;
-}
-
-// The oracle's arm seen from above in W (base, shoulder, elbow, wrist) and its tool (x, y, z).
-std::array<P, 4> arm(const BasePose& b, const JointVector& q) {
-  const double a1 = 0.067, a2 = 0.092, a3 = 0.095;
-  const std::array<P, 4> l = {P{0.0, 0.0}, P{a1, 0.0},
-                              P{a1 + a2 * std::cos(q[1]), a2 * std::sin(q[1])},
-                              P{a1 + a2 * std::cos(q[1]) + a3 * std::cos(q[1] + q[2]),
-                                a2 * std::sin(q[1]) + a3 * std::sin(q[1] + q[2])}};
-  std::array<P, 4> out{};
-  const double c = std::cos(b.yaw_rad), s = std::sin(b.yaw_rad);
-  for (int i = 0; i < 4; ++i) {
-    out[i] = {b.x_m + c * l[i][0] - s * l[i][1], b.y_m + s * l[i][0] + c * l[i][1]};
-  }
-  return out;
-}
-std::array<double, 3> tool(const BasePose& b, const JointVector& q) {
-  const P w = arm(b, q)[3];
-  return {w[0], w[1], b.z_m + q[0] - 0.067};
-}
-// Distance from point p to segment ab; between two arms, the least over their links' ends and
-// links (enough for links that do not cross: the test also checks they never do).
-double point_segment(P p, P a, P b) {
-  const double dx = b[0] - a[0], dy = b[1] - a[1], l2 = dx * dx + dy * dy;
-  const double t =
-      l2 > 0 ? std::clamp(((p[0] - a[0]) * dx + (p[1] - a[1]) * dy) / l2, 0.0, 1.0) : 0.0;
-  return std::hypot(p[0] - a[0] - t * dx, p[1] - a[1] - t * dy);
-}
-bool cross(P a, P b, P c, P d) {
-  const auto side = [](P o, P p, P q) {
-    return (p[0] - o[0]) * (q[1] - o[1]) - (p[1] - o[1]) * (q[0] - o[0]);
-  };
-  return side(a, b, c) * side(a, b, d) < 0 && side(c, d, a) * side(c, d, b) < 0;
-}
-double oracle_distance(const Workcell& w, const JointVector& qa, const JointVector& qb) {
-  const auto a = arm(w.robots[0].base, qa), b = arm(w.robots[1].base, qb);
-  double d = INFINITY;
-  for (int i = 0; i < 3; ++i) {
-    for (int k = 0; k < 3; ++k) {
-      if (cross(a[i], a[i + 1], b[k], b[k + 1])) return 0.0;
-      d = std::min({d, point_segment(a[i], b[k], b[k + 1]), point_segment(a[i + 1], b[k], b[k + 1]),
-                    point_segment(b[k], a[i], a[i + 1]), point_segment(b[k + 1], a[i], a[i + 1])});
-    }
-  }
-  return d;
-}
+Workcell two_arms() { return test::two_robots(400.0, 200.0, 180.0); }
 
 WorkcellTask task(const char* what, double px, double py, double qx, double qy) {
   return WorkcellTask{what, ToolPose{px / 1000, py / 1000, -0.02, 0.0},
@@ -91,8 +42,8 @@ void expect_plan_keeps_its_promises(const Workcell& w, const std::vector<Workcel
   for (const PlannedTask& pt : plan.tasks) {
     const BasePose& b = w.robots[pt.robot].base;
     ASSERT_EQ(pt.trajectory.events.size(), 2u) << tasks[pt.task].what;
-    const auto grip = tool(b, sample_at(pt.trajectory, pt.trajectory.events[0].t_s));
-    const auto release = tool(b, sample_at(pt.trajectory, pt.trajectory.events[1].t_s));
+    const auto grip = oracle_tool(b, sample_at(pt.trajectory, pt.trajectory.events[0].t_s));
+    const auto release = oracle_tool(b, sample_at(pt.trajectory, pt.trajectory.events[1].t_s));
     const ToolPose& pick = tasks[pt.task].pick_W;
     const ToolPose& place = tasks[pt.task].place_W;
     EXPECT_NEAR(grip[0], pick.x_m, 1e-4) << tasks[pt.task].what;
