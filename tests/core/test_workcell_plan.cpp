@@ -120,6 +120,30 @@ TEST(WorkcellPlan, AnArmThatWouldMeetTheOtherWaits) {
   EXPECT_GT(b.start_s, 0.0);
 }
 
+// The right arm stands in the gap (its start pose) and has nothing to do, so it never leaves:
+// the left arm's task there cannot start within the most delay and is refused, naming both.
+TEST(WorkcellPlan, AnArmStandingInTheWayIsRefusedAfterTheMostDelay) {
+  const Workcell w = two_arms();
+  JointVector in_the_gap = paper_robot().home;
+  in_the_gap[1] = deg_to_rad(45.0);  // forearm (268, 135) -> (201, 68) mm
+  WorkcellPlanOptions o;
+  o.max_delay_s = 1.0;
+  auto plan = plan_workcell_sort(w, {task("red cube 0", 205, 95, 150, -80)},
+                                 {paper_robot().home, in_the_gap}, o);
+  ASSERT_FALSE(plan.ok());
+  EXPECT_EQ(plan.error().code, static_cast<int>(PlanError::kCollision));
+  EXPECT_EQ(plan.error().message.rfind("red cube 0 (robot 'left'): no start within 1.0 s of "
+                                       "waiting keeps the arms apart: robots 'left' and 'right' "
+                                       "would come closer than the clearance of 20.0 mm at ",
+                                       0),
+            0u)
+      << plan.error().message;
+  o.delay_step_s = 0.0;
+  auto bad = plan_workcell_sort(w, {}, {paper_robot().home, paper_robot().home}, o);
+  ASSERT_FALSE(bad.ok());
+  EXPECT_EQ(bad.error().code, static_cast<int>(PlanError::kBadArgument));
+}
+
 TEST(WorkcellPlan, RefusesWhatNoRobotReachesAndABadStart) {
   const Workcell w = two_arms();
   auto far = plan_workcell_sort(w, {task("blue cube 2", 600, -300, 150, -80)},
