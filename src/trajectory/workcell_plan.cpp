@@ -112,18 +112,17 @@ Result<WorkcellPlan> plan_workcell_sort(const Workcell& w, const std::vector<Wor
   const auto schedule = [&](int r, const JointTrajectory& segment,
                             const std::string& what) -> Result<double> {
     const double ready = plan.timeline[r].duration_s();
-    std::vector<JointTrajectory> candidate(1);
+    JointTrajectory candidate;
     std::vector<RobotMotion> motions(n);
+    for (int i = 0; i < n; ++i) motions[i] = RobotMotion{&plan.timeline[i], 0.0};
+    motions[r].trajectory = &candidate;
     for (int k = 0;; ++k) {
       const double s = ready + k * o.delay_step_s;
-      candidate[0] = extended(plan.timeline[r], s, segment);
-      for (int i = 0; i < n; ++i) {
-        motions[i] = RobotMotion{i == r ? &candidate[0] : &plan.timeline[i], 0.0};
-      }
+      candidate = extended(plan.timeline[r], s, segment);
       auto report = check_clearance(w, motions, o.clearance);
       if (!report) return report.error();
       if (!report->first) {
-        plan.timeline[r] = std::move(candidate[0]);
+        plan.timeline[r] = std::move(candidate);
         return s;
       }
       if (s - ready >= o.max_delay_s) {
