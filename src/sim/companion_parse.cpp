@@ -5,6 +5,8 @@
 #include <cctype>
 #include <charconv>
 #include <cmath>
+#include <cstdlib>
+#include <string>
 #include <vector>
 
 #include <fmt/format.h>
@@ -95,7 +97,15 @@ Result<double> parse_number(std::string_view text, std::string_view what) {
   if (k != t.size()) return refuse();
   double v = 0.0;
   const auto [end, ec] = std::from_chars(t.data(), t.data() + t.size(), v);
-  if (ec != std::errc() || end != t.data() + t.size() || !std::isfinite(v)) return refuse();
+  if (ec == std::errc::result_out_of_range) {
+    // from_chars leaves v alone when the value does not fit: one too small for a double (as
+    // 1e-1121, found by the fuzzer) reads as a signed zero, as strtod reads it (our programs
+    // stay in the C locale); one too large is refused below as not finite
+    v = std::strtod(std::string(t).c_str(), nullptr);
+  } else if (ec != std::errc() || end != t.data() + t.size()) {
+    return refuse();
+  }
+  if (!std::isfinite(v)) return refuse();
   return v;
 }
 
