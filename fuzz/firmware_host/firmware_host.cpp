@@ -161,6 +161,19 @@ class Host {
   std::string out_;
 };
 
+// One value of a periodic report in the single-class form (setting 10 = 2, docs/firmware.md):
+// `t<us>`, `z`, `y`, `x<steps>`, `w`, `g<cdeg>`, then '\n'; t is unsigned.
+bool single_class_line(std::string_view line) {
+  if (line.size() < 3 || std::string_view("tzyxwg").find(line[0]) == std::string_view::npos) {
+    return false;
+  }
+  std::size_t i = 1;
+  if (line[0] != 't' && line[i] == '-') ++i;
+  const std::size_t digits_from = i;
+  while (i < line.size() && line[i] >= '0' && line[i] <= '9') ++i;
+  return i > digits_from && i + 1 == line.size() && line[i] == '\n';
+}
+
 }  // namespace
 
 bool firmware_starts_fresh() {
@@ -190,6 +203,7 @@ std::string check_firmware_commands(const std::uint8_t* data, std::size_t size) 
     const std::string_view line(out.data() + at, nl + 1 - at);
     at = nl + 1;
     if (line.rfind("error: ", 0) == 0) continue;  // the companion dialect's error line
+    if (single_class_line(line)) continue;        // a report in the single-class form (CF 10 = 2)
     std::string violation;
     decoder.feed(line, [&](protocol::Decoded<protocol::SerialFromDevice>&& item) {
       if (item.index() == 1) {

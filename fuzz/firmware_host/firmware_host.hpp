@@ -10,8 +10,10 @@
 // (src/robot/mechanics.hpp), so homing completes and trajectories run.
 //
 // The invariants: the firmware's first line is its hello; every line it sends is either a
-// packet the host decodes without error (docs/protocol.md section 8) or, in the companion
-// dialect, an "error: " line; it ends what it sends with '\n'; nothing trips ASan or UBSan.
+// packet the host decodes without error (docs/protocol.md section 8), in the companion
+// dialect an "error: " line, or with setting 10 = 2 one value of a single-class report
+// (`t<us>`, `z`/`y`/`x<steps>`, `w`/`g<cdeg>`: docs/firmware.md); it ends what it sends with
+// '\n'; nothing trips ASan or UBSan.
 #pragma once
 
 #include <cstddef>
