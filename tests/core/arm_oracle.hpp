@@ -7,6 +7,7 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <string>
 
 #include "scaratwin/core/units.hpp"
 #include "scaratwin/kinematics/workcell.hpp"
@@ -15,13 +16,15 @@ namespace scaratwin::test {
 
 using P = std::array<double, 2>;
 
-// Two paper robots: "left" at the origin, "right" at (x, y) mm turned by yaw_deg.
-inline Workcell two_robots(double x_mm, double y_mm, double yaw_deg) {
+// Two paper robots: "left" at the origin, "right" at (x, y) mm turned by yaw_deg, its
+// description said to come from `right_file` (for messages).
+inline Workcell two_robots(double x_mm, double y_mm, double yaw_deg,
+                           const std::string& right_file = "") {
   Workcell w = single_robot_workcell(paper_robot());
   w.robots[0].name = "left";
   w.robots.push_back(RobotInstance{"right",
                                    BasePose{x_mm / 1000.0, y_mm / 1000.0, 0.0, deg_to_rad(yaw_deg)},
-                                   paper_robot(), ""});
+                                   paper_robot(), right_file});
   return w;
 }
 

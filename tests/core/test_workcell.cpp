@@ -10,6 +10,7 @@
 
 #include <unistd.h>
 
+#include "arm_oracle.hpp"
 #include "scaratwin/config/robot_config.hpp"
 #include "scaratwin/config/workcell_config.hpp"
 #include "scaratwin/core/units.hpp"
@@ -22,14 +23,8 @@ namespace fs = std::filesystem;
 
 const fs::path kConfigDir = fs::path(SCARATWIN_SOURCE_DIR) / "config";
 
-// Two paper robots: "left" at the origin, "right" at (x, y) mm turned by yaw_deg.
 Workcell two_robots(double x_mm, double y_mm, double yaw_deg) {
-  Workcell w = single_robot_workcell(paper_robot());
-  w.robots[0].name = "left";
-  w.robots.push_back(RobotInstance{"right",
-                                   BasePose{x_mm / 1000.0, y_mm / 1000.0, 0.0, deg_to_rad(yaw_deg)},
-                                   paper_robot(), "right.toml"});
-  return w;
+  return test::two_robots(x_mm, y_mm, yaw_deg, "right.toml");
 }
 
 // The refusal's code is ConfigError::kInvalid and its message holds every one of `parts`.
