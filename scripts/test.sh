@@ -97,7 +97,12 @@ trap 'kill -- "-$background_pid" 2>/dev/null || true' EXIT
 # long runs (label `long`: more builds to calibrate, ...) are run by hand, docs/calibration.md
 suites=0
 ctest --preset ci -j "$jobs" -LE long -E "$first_test" || suites=$?
-if [[ $suites != 0 ]]; then failures+=("the test suites: ctest exit $suites"); fi
+if [[ $suites != 0 ]]; then
+  # name the failed tests at the end, where a truncated log still shows them
+  failed_list=$(sed 's/^[0-9]*://' build/ci/Testing/Temporary/LastTestsFailed.log 2>/dev/null |
+    paste -sd ' ' || true)
+  failures+=("the test suites: ctest exit $suites; failed: ${failed_list:-(see the log)}")
+fi
 
 collect "coverage, the Makefile build and the ThreadSanitizer build" "$background_pid" \
   "$background_log"
@@ -108,8 +113,12 @@ trap - EXIT
 if [[ "${SCARATWIN_TEST_TSAN:-1}" != 0 ]]; then
   tsan_suites='LineSplitter|Tcp|IoThread|Serial|SequenceTracker|LinkCounters|Statements|Channel'
   tsan_suites+='|WebServer|HttpTest|Feed|Commands|FakeRobotTest|FakeRobotHub|HubRobots'
-  ctest --preset tsan --no-tests=error -j "$jobs" -R "^(${tsan_suites})\\." ||
-    failures+=("the ThreadSanitizer tests of the transports, the web server and the hub")
+  if ! ctest --preset tsan --no-tests=error -j "$jobs" -R "^(${tsan_suites})\\."; then
+    failed_list=$(sed 's/^[0-9]*://' build/tsan/Testing/Temporary/LastTestsFailed.log \
+      2>/dev/null | paste -sd ' ' || true)
+    failures+=("the ThreadSanitizer tests of the transports, the web server and the hub;\
+ failed: ${failed_list:-(see the log)}")
+  fi
 fi
 if ((${#failures[@]})); then
   printf 'error: %s\n' "${failures[@]}" >&2
