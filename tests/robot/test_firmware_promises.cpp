@@ -229,9 +229,14 @@ TEST_F(Promise, TrajectoryPointsAreRefusedWithTheDocumentedCodesAndNothingMoves)
 }
 
 // While a trajectory steps, TB, HM and JG are busy (9); the running trajectory goes on.
+// Fifteen points, the queue's size, over 8 s: the whole trajectory is queued by the time the
+// test asks, so it is still stepping however slowly the host runs. (With 59 points over 5 s,
+// loading ended with about a second of motion left, less in wall time as the emulator runs
+// unpaced here; in one CI run, two cores busy, the motion had stopped when the test asked.)
 TEST_F(Promise, MotionCommandsAreBusyWhileATrajectoryRuns) {
   ASSERT_TRUE(robot.home());
-  const auto pts = plan_points({0.10, 0.8, -0.6, 0.5}, 5.0);
+  const auto pts = plan_points({0.10, 0.8, -0.6, 0.5}, 8.0, 16);
+  ASSERT_EQ(pts.size(), 15u);
   ASSERT_TRUE(load_trajectory(robot, pts));
   auto st = robot.query_state();
   ASSERT_TRUE(st);
