@@ -1,5 +1,6 @@
-// Packet codec core: streaming decoder and encoder (docs/protocol.md); the code tables are in
-// code_tables.hpp. C++14 subset shared with the firmware: see codec_core.h.
+// Packet codec core: streaming decoder and encoder (docs/protocol.md); the code tables are built
+// from the packet structs' rows (link_tables.cpp; the firmware's are generated from them,
+// firmware/tools/fw_codes.cpp). C++14 subset shared with the firmware: see codec_core.h.
 #include "scaratwin/protocol/codec_core.h"
 
 #include <string.h>
@@ -7,8 +8,6 @@
 #if defined(__AVR__)
 #include <avr/pgmspace.h>
 #endif
-
-#include "code_tables.hpp"
 
 namespace scaratwin {
 namespace protocol {

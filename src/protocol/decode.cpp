@@ -1,7 +1,12 @@
-// Packet -> typed message for the four link directions, with the per-code value checks, and
-// the messages of decode errors.
+// Packet -> typed message for the four link directions, each packet read by its row
+// (messages.hpp, fields.hpp) with the value checks it names, and the messages of decode errors.
 #include <string>
+#include <tuple>
+#include <type_traits>
+#include <utility>
+#include <variant>
 
+#include "packet_table.hpp"
 #include "scaratwin/protocol/codec.hpp"
 #include "wire_units.hpp"
 
@@ -53,76 +58,9 @@ bool in_range(const Packet& p, std::uint8_t i, std::int64_t lo, std::int64_t hi,
   return false;
 }
 
-std::optional<std::int32_t> optional_field(const Packet& p, std::uint8_t i) {
-  if (i < p.field_count) return p.i32(i);
-  return std::nullopt;
-}
-
-// The robot index in optional field i of a robot-addressed TCP packet: 0 when the packet has
-// none (a v1 packet addresses robot 0).
-std::int32_t robot_of(const Packet& p, std::uint8_t i, std::optional<DecodeError>* error) {
-  if (i >= p.field_count) return 0;
-  if (!*error) in_range(p, i, 0, core::kMaxRobotIndex, error);
-  return p.i32(i);
-}
-
-std::uint16_t seq_of(const Packet& p, std::uint8_t i) {
-  return static_cast<std::uint16_t>(p.i32(i));
-}
-
-JointVector joints_of(const Packet& p, std::uint8_t first) {
-  return JointVector{wire::mm_field_to_m(p, first), wire::deg_field_to_rad(p, first + 1),
-                     wire::deg_field_to_rad(p, first + 2), wire::deg_field_to_rad(p, first + 3)};
-}
-
-bool parse_mode(const Packet& p, std::uint8_t i, SimMode* mode) {
-  if (p.text_equals(i, "mirror")) {
-    *mode = SimMode::kMirror;
-  } else if (p.text_equals(i, "simulate")) {
-    *mode = SimMode::kSimulate;
-  } else {
-    return false;
-  }
-  return true;
-}
-
-bool parse_color_field(const Packet& p, std::uint8_t i, CubeColor* color) {
-  for (int c = 0; c < kNumColors; ++c) {
-    if (p.text_equals(i, color_name(static_cast<CubeColor>(c)))) {
-      *color = static_cast<CubeColor>(c);
-      return true;
-    }
-  }
-  return false;
-}
-
 bool is_code_text(const Packet& p, std::uint8_t i) {
   const char* s = p.text(i);
   return p.field_length[i] == 2 && s[0] >= 'A' && s[0] <= 'Z' && s[1] >= 'A' && s[1] <= 'Z';
-}
-
-// The message, constructed in place (no temporary variant to move).
-template <typename Direction, typename T>
-Decoded<Direction> make(T&& message) {
-  return Decoded<Direction>(std::in_place_index<0>, std::forward<T>(message));
-}
-
-template <typename Direction, typename T>
-Decoded<Direction> checked(std::optional<DecodeError>& error, T&& message) {
-  if (error) return Decoded<Direction>(std::in_place_index<1>, std::move(*error));
-  return make<Direction>(std::forward<T>(message));
-}
-
-// replies shared by both links
-template <typename Direction>
-Decoded<Direction> ack_or_error(const Packet& p) {
-  if (p.code == code_id('A', 'K')) {
-    if (!is_code_text(p, 0)) return bad_value(p, 0, "a two-letter upper-case code");
-    return make<Direction>(Ack{field_text(p, 0), optional_field(p, 1)});
-  }
-  std::optional<DecodeError> error;
-  in_range(p, 0, 1, 255, &error);
-  return checked<Direction>(error, ErrorReply{p.i32(0), optional_field(p, 1)});
 }
 
 // A description hash field: 8 lower-case hex digits (docs/protocol.md section 11).
@@ -135,248 +73,205 @@ bool is_description(const Packet& p, std::uint8_t i) {
   return true;
 }
 
-// The optional description hash in field i of a hello, "" when the hello has none.
-template <typename Direction>
-std::optional<Decoded<Direction>> description_field(const Packet& p, std::uint8_t i,
-                                                    std::string* out) {
-  if (p.field_count <= i) return std::nullopt;
-  if (!is_description(p, i)) {
-    return Decoded<Direction>(std::in_place_index<1>,
-                              bad_value(p, i, "a description hash of 8 lower-case hex digits"));
+// Reads one packet's fields in order. The first value a receiver refuses is the packet's
+// error; the fields after it are read but not checked.
+struct Reader {
+  const Packet& p;
+  bool tcp;
+  std::uint8_t i = 0;  // the next wire field
+  std::optional<DecodeError> error;
+
+  // Whether the field at the current index is there (an optional one may not be).
+  template <class F>
+  bool present() const {
+    if (!tcp && (F::kWhere & field::kTcpOnly)) return false;
+    return !(F::kWhere & field::kOptional) || i < p.field_count;
   }
-  *out = field_text(p, i);
-  return std::nullopt;
+  // Range check of integer field `k`.
+  void check(std::uint8_t k, std::int64_t lo, std::int64_t hi) {
+    if (!error) in_range(p, k, lo, hi, &error);
+  }
+  void refuse(std::uint8_t k, const std::string& valid) {
+    if (!error) error = bad_value(p, k, valid);
+  }
+};
+
+// One get() per kind of field (fields.hpp), each reading its member from wire field r.i.
+template <class M, class V, char K>
+void get(Reader& r, M& m, const field::Int<M, V, K>& f) {
+  if (f.checked) r.check(r.i, f.lo, f.hi);
+  if constexpr (K == 'u') {
+    m.*f.member = static_cast<V>(r.p.u32(r.i));
+  } else {
+    m.*f.member = static_cast<V>(r.p.i32(r.i));
+  }
+}
+template <class M>
+void get(Reader& r, M& m, const field::OptInt<M>& f) {
+  m.*f.member = r.p.i32(r.i);
+}
+template <class M>
+void get(Reader& r, M& m, const field::Flag<M>& f) {
+  r.check(r.i, 0, 1);
+  m.*f.member = r.p.i32(r.i) == 1;
+}
+template <class M, class E>
+void get(Reader& r, M& m, const field::IntEnum<M, E>& f) {
+  r.check(r.i, f.lo, f.hi);
+  m.*f.member = static_cast<E>(r.p.i32(r.i));
+}
+template <class M, class E>
+void get(Reader& r, M& m, const field::NameEnum<M, E>& f) {
+  std::string valid;
+  for (int k = 0; k < f.count; ++k) {
+    const E e = static_cast<E>(k);
+    if (r.p.text_equals(r.i, f.name_of(e))) {
+      m.*f.member = e;
+      return;
+    }
+    valid += (k ? ", " : "") + std::string(f.name_of(e));
+  }
+  r.refuse(r.i, valid);
+}
+template <class M>
+void get(Reader& r, M& m, const field::Text<M>& f) {
+  if (f.code && !is_code_text(r.p, r.i)) r.refuse(r.i, "a two-letter upper-case code");
+  m.*f.member = field_text(r.p, r.i);
+}
+template <class M>
+void get(Reader& r, M& m, const field::Description<M>& f) {
+  if (!is_description(r.p, r.i)) {
+    r.refuse(r.i, "a description hash of 8 lower-case hex digits");
+    return;
+  }
+  m.*f.member = field_text(r.p, r.i);
+}
+template <class M>
+void get(Reader& r, M& m, const field::Length<M>& f) {
+  m.*f.member = wire::mm_field_to_m(r.p, r.i);
+}
+template <class M>
+void get(Reader& r, M& m, const field::Angle<M>& f) {
+  m.*f.member = wire::deg_field_to_rad(r.p, r.i);
+}
+template <class M>
+void get(Reader& r, M& m, const field::Joints<M>& f) {
+  const std::uint8_t k = r.i;
+  m.*f.member = JointVector{wire::mm_field_to_m(r.p, k), wire::deg_field_to_rad(r.p, k + 1),
+                            wire::deg_field_to_rad(r.p, k + 2), wire::deg_field_to_rad(r.p, k + 3)};
+}
+template <class M>
+void get(Reader& r, M& m, const field::Centideg<M>& f) {
+  if (f.checked) r.check(r.i, f.lo, f.hi);
+  m.*f.member = wire::cdeg_to_rad(r.p.i32(r.i));
+}
+template <class M>
+void get(Reader& r, M& m, const field::OptCentideg<M>& f) {
+  r.check(r.i, f.lo, f.hi);
+  m.*f.member = wire::cdeg_to_rad(r.p.i32(r.i));
+}
+template <class M>
+void get(Reader& r, M& m, const field::Millis<M>& f) {
+  r.check(r.i, f.lo, f.hi);
+  m.*f.member = wire::ms_to_s(r.p.i32(r.i));
+}
+template <class M, class V>
+void get(Reader& r, M& m, const field::Steps<M, V>& f) {
+  m.*f.member = {r.p.i32(r.i), r.p.i32(r.i + 1), r.p.i32(r.i + 2)};
+}
+template <class M>
+void get(Reader& r, M& m, const field::Robot<M>& f) {
+  r.check(r.i, 0, core::kMaxRobotIndex);
+  m.*f.member = r.p.i32(r.i);
+}
+// the role (control or observe) and the token ("-": none) of a hello on TCP
+void get(Reader& r, Hello& m, const field::HelloAccess&) {
+  if (!r.p.text_equals(r.i, "control") && !r.p.text_equals(r.i, "observe")) {
+    r.refuse(r.i, "control or observe");
+  }
+  m.role = field_text(r.p, r.i);
+  if (r.i + 1 < r.p.field_count && !r.p.text_equals(r.i + 1, "-")) {
+    m.token = field_text(r.p, r.i + 1);
+  }
+}
+void get(Reader& r, Jog& m, const field::JogDelta&) {
+  const std::int32_t v = r.p.i32(r.i);
+  m.delta = m.axis == Axis::kWrist ? wire::cdeg_to_rad(v) : v;
+}
+void get(Reader& r, JointWarning& m, const field::WarningValue&) {
+  m.value = m.joint == 1 ? wire::mm_field_to_m(r.p, r.i) : wire::deg_field_to_rad(r.p, r.i);
+}
+// a camera shot's size: both fields or neither
+void get(Reader& r, CameraShoot& m, const field::ShotSize&) {
+  if (r.p.field_count == r.i + 1) {
+    if (!r.error) {
+      r.error = DecodeError{core::kErrWrongFieldCount, r.p.field_count,
+                            "CS has 1 field; expects 0 or 2 (width_px, height_px)"};
+    }
+    return;
+  }
+  r.check(r.i, 1, 8192);
+  r.check(r.i + 1, 1, 8192);
+  m.width_px = r.p.i32(r.i);
+  m.height_px = r.p.i32(r.i + 1);
+}
+// the PNG bytes follow the line: the stream decoder collects them (codec.hpp)
+void get(Reader&, Image&, const field::PayloadSize&) {}
+
+// A packet of type M from its fields, in their row's order.
+template <typename Direction, class M>
+Decoded<Direction> get_packet(const Packet& p) {
+  Reader r{p, table::kTcp<Direction>, 0, std::nullopt};
+  Decoded<Direction> out(std::in_place_index<0>, std::in_place_type<M>);
+  M& m = std::get<M>(std::get<0>(out));
+  std::apply(
+      [&](const auto&... f) {
+        [[maybe_unused]] const auto one = [&](const auto& descriptor) {
+          using F = std::decay_t<decltype(descriptor)>;
+          if (!r.template present<F>()) return;
+          get(r, m, descriptor);
+          r.i = static_cast<std::uint8_t>(r.i + F::kKinds.size());
+        };
+        (one(f), ...);
+      },
+      M::fields());
+  if (r.error) return Decoded<Direction>(std::in_place_index<1>, std::move(*r.error));
+  return out;
+}
+
+// The packet type of the direction whose code the packet has.
+template <typename Direction, class T, class... Rest>
+Decoded<Direction> decode_as(const Packet& p) {
+  if constexpr (table::Packet<T>) {
+    if (p.code == table::code_of<T>()) return get_packet<Direction, T>(p);
+  }
+  if constexpr (sizeof...(Rest) > 0) {
+    return decode_as<Direction, Rest...>(p);
+  } else {
+    return DecodeError{core::kErrInternal, 0, "no typed message for code " + code_text(p.code)};
+  }
 }
 
 template <typename Direction>
-Decoded<Direction> peer_hello(const Packet& p) {
-  PeerHello hi{p.i32(0), field_text(p, 1), field_text(p, 2), {}};
-  if (auto bad = description_field<Direction>(p, 3, &hi.description)) return std::move(*bad);
-  return make<Direction>(std::move(hi));
-}
+struct Dispatch;
+template <typename... Ts>
+struct Dispatch<std::variant<Ts...>> {
+  static Decoded<std::variant<Ts...>> decode(const Packet& p) {
+    return decode_as<std::variant<Ts...>, Ts...>(p);
+  }
+};
 
 }  // namespace
 
 Decoded<SerialToDevice> to_message(const Packet& p, SerialToDevice*) {
-  using M = SerialToDevice;
-  std::optional<DecodeError> error;
-  switch (p.code) {
-    case code_id('H', 'I'): {
-      Hello hello{p.i32(0), {}, {}, {}};
-      if (auto bad = description_field<M>(p, 1, &hello.description)) return std::move(*bad);
-      return make<M>(std::move(hello));
-    }
-    case code_id('P', 'I'):
-      return make<M>(Ping{optional_field(p, 0)});
-    case code_id('S', 'R'):
-      in_range(p, 0, 0, 1000, &error);
-      return checked<M>(error, SetReportRate{p.i32(0)});
-    case code_id('Q', 'S'):
-      return make<M>(QueryState{});
-    case code_id('H', 'M'):
-      return make<M>(Home{});
-    case code_id('T', 'B'):
-      in_range(p, 0, 1, 65535, &error);
-      return checked<M>(error, TrajectoryBegin{p.i32(0)});
-    case code_id('T', 'P'): {
-      in_range(p, 0, 0, 65534, &error) && in_range(p, 1, 1, 65535, &error) &&
-          in_range(p, 5, 0, 18000, &error) &&
-          (p.field_count < 7 || in_range(p, 6, 0, 18000, &error));
-      TrajectoryPoint t;
-      t.seq = p.i32(0);
-      t.dt_s = wire::ms_to_s(p.i32(1));
-      t.steps = {p.i32(2), p.i32(3), p.i32(4)};
-      t.wrist_rad = wire::cdeg_to_rad(p.i32(5));
-      if (p.field_count == 7) t.grip_rad = wire::cdeg_to_rad(p.i32(6));
-      return checked<M>(error, t);
-    }
-    case code_id('G', 'R'):
-      in_range(p, 0, 0, 18000, &error);
-      return checked<M>(error, SetGripper{wire::cdeg_to_rad(p.i32(0))});
-    case code_id('J', 'G'): {
-      in_range(p, 0, 0, 3, &error);
-      const auto axis = static_cast<Axis>(p.i32(0));
-      const double delta = axis == Axis::kWrist ? wire::cdeg_to_rad(p.i32(1)) : p.i32(1);
-      return checked<M>(error, Jog{axis, delta});
-    }
-    case code_id('S', 'P'):
-      return make<M>(Stop{});
-    case code_id('C', 'F'):
-      // the firmware's keys 1..11 (docs/firmware.md); their values are the firmware's to judge
-      in_range(p, 0, 1, 11, &error);
-      return checked<M>(error, Config{p.i32(0), optional_field(p, 1)});
-    default:
-      break;
-  }
-  return DecodeError{core::kErrInternal, 0, "no typed message for code " + code_text(p.code)};
+  return Dispatch<SerialToDevice>::decode(p);
 }
-
 Decoded<SerialFromDevice> to_message(const Packet& p, SerialFromDevice*) {
-  using M = SerialFromDevice;
-  std::optional<DecodeError> error;
-  switch (p.code) {
-    case code_id('H', 'I'):
-      return peer_hello<M>(p);
-    case code_id('S', 'T'): {
-      in_range(p, 0, 0, 65535, &error) && in_range(p, 7, 0, 0x7fffffff, &error) &&
-          in_range(p, 8, 0, 65535, &error);
-      DeviceState s;
-      s.seq = seq_of(p, 0);
-      s.t_us = p.u32(1);
-      s.steps = {p.i32(2), p.i32(3), p.i32(4)};
-      s.wrist_rad = wire::cdeg_to_rad(p.i32(5));
-      s.grip_rad = wire::cdeg_to_rad(p.i32(6));
-      s.flags = p.u32(7);
-      s.queue_free = p.i32(8);
-      return checked<M>(error, s);
-    }
-    case code_id('A', 'K'):
-    case code_id('E', 'R'):
-      return ack_or_error<M>(p);
-    case code_id('E', 'V'):
-      in_range(p, 0, 1, kLastDeviceEvent, &error);
-      return checked<M>(error,
-                        DeviceEvent{static_cast<DeviceEventCode>(p.i32(0)), optional_field(p, 1)});
-    default:
-      break;
-  }
-  return DecodeError{core::kErrInternal, 0, "no typed message for code " + code_text(p.code)};
+  return Dispatch<SerialFromDevice>::decode(p);
 }
-
-Decoded<TcpToSim> to_message(const Packet& p, TcpToSim*) {
-  using M = TcpToSim;
-  std::optional<DecodeError> error;
-  switch (p.code) {
-    case code_id('H', 'I'): {
-      Hello hello{p.i32(0), {}, {}, {}};
-      if (p.field_count > 1) {
-        if (!p.text_equals(1, "control") && !p.text_equals(1, "observe")) {
-          return bad_value(p, 1, "control or observe");
-        }
-        hello.role = field_text(p, 1);
-      }
-      // "-": no token (a hello that carries a description hash but no token)
-      if (p.field_count > 2 && !p.text_equals(2, "-")) hello.token = field_text(p, 2);
-      if (auto bad = description_field<M>(p, 3, &hello.description)) return std::move(*bad);
-      return make<M>(std::move(hello));
-    }
-    case code_id('P', 'I'):
-      return make<M>(Ping{optional_field(p, 0)});
-    case code_id('J', 'D'):
-    case code_id('T', 'J'): {
-      in_range(p, 0, 0, 65535, &error);
-      const std::int32_t robot = robot_of(p, 6, &error);
-      if (error) return std::move(*error);
-      if (p.code == code_id('J', 'D'))
-        return make<M>(JointData{seq_of(p, 0), p.u32(1), joints_of(p, 2), robot});
-      return make<M>(JointTargets{seq_of(p, 0), p.u32(1), joints_of(p, 2), robot});
-    }
-    case code_id('M', 'D'): {
-      SetMode m;
-      if (!parse_mode(p, 0, &m.mode)) return bad_value(p, 0, "mirror, simulate");
-      m.robot = robot_of(p, 1, &error);
-      return checked<M>(error, m);
-    }
-    case code_id('T', 'W'): {
-      for (TwinPhase t : {TwinPhase::kNone, TwinPhase::kMirror, TwinPhase::kControl,
-                          TwinPhase::kPrediction, TwinPhase::kHoming}) {
-        if (p.text_equals(0, phase_name(t))) {
-          const std::int32_t robot = robot_of(p, 1, &error);
-          return checked<M>(error, SetTwinPhase{t, robot});
-        }
-      }
-      return bad_value(p, 0, "none, mirror, control, prediction, homing");
-    }
-    case code_id('G', 'R'): {
-      in_range(p, 0, 0, 1, &error);
-      const std::int32_t robot = robot_of(p, 1, &error);
-      return checked<M>(error, Grasp{p.i32(0) == 1, robot});
-    }
-    case code_id('C', 'S'):
-      if (p.field_count == 1) {
-        return DecodeError{core::kErrWrongFieldCount, 1,
-                           "CS has 1 field; expects 0 or 2 (width_px, height_px)"};
-      }
-      if (p.field_count == 0) return make<M>(CameraShoot{});
-      in_range(p, 0, 1, 8192, &error) && in_range(p, 1, 1, 8192, &error);
-      return checked<M>(error, CameraShoot{p.i32(0), p.i32(1)});
-    case code_id('S', 'C'): {
-      SpawnCube c;
-      if (!parse_color_field(p, 0, &c.color)) return bad_value(p, 0, "red, green, blue");
-      c.x_m = wire::mm_field_to_m(p, 1);
-      c.y_m = wire::mm_field_to_m(p, 2);
-      return make<M>(c);
-    }
-    case code_id('R', 'S'):
-      return make<M>(ResetScene{});
-    case code_id('O', 'P'):
-      return make<M>(QueryObjects{optional_field(p, 0)});
-    case code_id('Q', 'S'): {
-      const std::int32_t robot = robot_of(p, 0, &error);
-      return checked<M>(error, QueryState{robot});
-    }
-    case code_id('S', 'P'): {
-      const std::int32_t robot = robot_of(p, 0, &error);
-      return checked<M>(error, Stop{robot});
-    }
-    default:
-      break;
-  }
-  return DecodeError{core::kErrInternal, 0, "no typed message for code " + code_text(p.code)};
-}
-
+Decoded<TcpToSim> to_message(const Packet& p, TcpToSim*) { return Dispatch<TcpToSim>::decode(p); }
 Decoded<TcpFromSim> to_message(const Packet& p, TcpFromSim*) {
-  using M = TcpFromSim;
-  std::optional<DecodeError> error;
-  switch (p.code) {
-    case code_id('H', 'I'):
-      return peer_hello<M>(p);
-    case code_id('J', 'A'): {
-      in_range(p, 0, 0, 65535, &error);
-      const std::int32_t robot = robot_of(p, 2, &error);
-      return checked<M>(error, JointApplied{seq_of(p, 0), p.u32(1), robot});
-    }
-    case code_id('G', 'R'): {
-      in_range(p, 0, 0, 1, &error) && in_range(p, 1, -1, 0x7fffffff, &error);
-      const std::int32_t robot = robot_of(p, 2, &error);
-      return checked<M>(error, GripperState{p.i32(0) == 1, p.i32(1), robot});
-    }
-    case code_id('O', 'P'): {
-      ObjectPose o;
-      o.id = p.i32(0);
-      if (!parse_color_field(p, 1, &o.color)) return bad_value(p, 1, "red, green, blue");
-      o.x_m = wire::mm_field_to_m(p, 2);
-      o.y_m = wire::mm_field_to_m(p, 3);
-      o.z_m = wire::mm_field_to_m(p, 4);
-      o.yaw_rad = wire::deg_field_to_rad(p, 5);
-      return make<M>(o);
-    }
-    case code_id('S', 'T'): {
-      in_range(p, 0, 0, 65535, &error) && in_range(p, 6, 0, 1, &error) &&
-          in_range(p, 7, -1, 0x7fffffff, &error);
-      SimState s;
-      s.seq = seq_of(p, 0);
-      s.t_us = p.u32(1);
-      s.q = joints_of(p, 2);
-      s.grip_closed = p.i32(6) == 1;
-      s.held_id = p.i32(7);
-      if (!error && !parse_mode(p, 8, &s.mode)) return bad_value(p, 8, "mirror, simulate");
-      s.robot = robot_of(p, 9, &error);
-      return checked<M>(error, s);
-    }
-    case code_id('J', 'W'): {
-      in_range(p, 0, 1, 4, &error);
-      const double value = p.i32(0) == 1 ? wire::mm_field_to_m(p, 1) : wire::deg_field_to_rad(p, 1);
-      const std::int32_t robot = robot_of(p, 2, &error);
-      return checked<M>(error, JointWarning{p.i32(0), value, robot});
-    }
-    case code_id('A', 'K'):
-    case code_id('E', 'R'):
-      return ack_or_error<M>(p);
-    default:
-      break;
-  }
-  return DecodeError{core::kErrInternal, 0, "no typed message for code " + code_text(p.code)};
+  return Dispatch<TcpFromSim>::decode(p);
 }
 
 DecodeError to_error(const core::Event& ev, const core::LinkSpec& link, const Packet& rejected) {

@@ -1,6 +1,9 @@
-// Typed message -> packet bytes for the four link directions.
+// Typed message -> packet bytes for the four link directions, each packet from its row
+// (messages.hpp, fields.hpp).
 #include <cmath>
 #include <string>
+#include <string_view>
+#include <tuple>
 #include <type_traits>
 
 #include "scaratwin/protocol/codec.hpp"
@@ -26,8 +29,10 @@ class Writer {
   }
   void i32(std::int32_t v) { encoder_.add_i32(v); }
   void u32(std::uint32_t v) { encoder_.add_u32(v); }
-  void text(const std::string& s, const char* name) {
-    if (s.empty() || s.size() > core::kMaxTextLength) fail(name, "'" + s + "'", "1..32 characters");
+  void text(std::string_view s, const char* name) {
+    if (s.empty() || s.size() > core::kMaxTextLength) {
+      fail(name, "'" + std::string(s) + "'", "1..32 characters");
+    }
     encoder_.add_text(s.data(), s.size());
   }
   // a description hash: 8 lower-case hex digits
@@ -111,192 +116,109 @@ class Writer {
   std::optional<Error> error_;
 };
 
-// shared ------------------------------------------------------------------------------------
-void put(Writer& w, const Hello& m) {
-  w.begin('H', 'I');
-  w.i32(m.version);
-  // on TCP the description hash follows the role and the token ("-": none)
+// One put() per kind of field (fields.hpp), each writing its member in its wire unit.
+template <class M, class V, char K>
+void put(Writer& w, const M& m, const field::Int<M, V, K>& f) {
+  if constexpr (K == 'u') {
+    w.u32(static_cast<std::uint32_t>(m.*f.member));
+  } else {
+    w.i32(static_cast<std::int32_t>(m.*f.member));
+  }
+}
+template <class M>
+void put(Writer& w, const M& m, const field::OptInt<M>& f) {
+  w.opt(m.*f.member);
+}
+template <class M>
+void put(Writer& w, const M& m, const field::Flag<M>& f) {
+  w.i32(m.*f.member ? 1 : 0);
+}
+template <class M, class E>
+void put(Writer& w, const M& m, const field::IntEnum<M, E>& f) {
+  w.i32(static_cast<std::int32_t>(m.*f.member));
+}
+template <class M, class E>
+void put(Writer& w, const M& m, const field::NameEnum<M, E>& f) {
+  w.text(f.name_of(m.*f.member), f.name);
+}
+template <class M>
+void put(Writer& w, const M& m, const field::Text<M>& f) {
+  w.text(m.*f.member, f.name);
+}
+template <class M>
+void put(Writer& w, const M& m, const field::Description<M>& f) {
+  if (!(m.*f.member).empty()) w.description(m.*f.member);
+}
+template <class M>
+void put(Writer& w, const M& m, const field::Length<M>& f) {
+  w.m_as_mm(m.*f.member, f.name);
+}
+template <class M>
+void put(Writer& w, const M& m, const field::Angle<M>& f) {
+  w.rad_as_deg(m.*f.member, f.name);
+}
+template <class M>
+void put(Writer& w, const M& m, const field::Joints<M>& f) {
+  w.joints(m.*f.member);
+}
+template <class M>
+void put(Writer& w, const M& m, const field::Centideg<M>& f) {
+  w.rad_as_cdeg(m.*f.member, f.name);
+}
+template <class M>
+void put(Writer& w, const M& m, const field::OptCentideg<M>& f) {
+  if (m.*f.member) w.rad_as_cdeg(*(m.*f.member), f.name);
+}
+template <class M>
+void put(Writer& w, const M& m, const field::Millis<M>& f) {
+  w.s_as_ms(m.*f.member, f.name);
+}
+template <class M, class V>
+void put(Writer& w, const M& m, const field::Steps<M, V>& f) {
+  for (std::int32_t s : m.*f.member) w.i32(s);
+}
+template <class M>
+void put(Writer& w, const M& m, const field::Robot<M>& f) {
+  w.robot(m.*f.member);
+}
+// on TCP a hello's role and token come before its description hash ("-": no token)
+void put(Writer& w, const Hello& m, const field::HelloAccess&) {
+  if (!w.tcp()) return;
   const bool described = !m.description.empty();
-  if (w.tcp() && (!m.role.empty() || !m.token.empty() || described)) {
+  if (!m.role.empty() || !m.token.empty() || described) {
     w.text(m.role.empty() ? "control" : m.role, "role");
   }
-  if (w.tcp() && (!m.token.empty() || described)) w.text(m.token.empty() ? "-" : m.token, "token");
-  if (described) w.description(m.description);
+  if (!m.token.empty() || described) w.text(m.token.empty() ? "-" : m.token, "token");
 }
-void put(Writer& w, const PeerHello& m) {
-  w.begin('H', 'I');
-  w.i32(m.version);
-  w.text(m.device, "device");
-  w.text(m.software_version, "software_version");
-  if (!m.description.empty()) w.description(m.description);
-}
-void put(Writer& w, const Ping& m) {
-  w.begin('P', 'I');
-  w.opt(m.token);
-}
-void put(Writer& w, const QueryState& m) {
-  w.begin('Q', 'S');
-  w.robot(m.robot);
-}
-void put(Writer& w, const Stop& m) {
-  w.begin('S', 'P');
-  w.robot(m.robot);
-}
-void put(Writer& w, const Ack& m) {
-  w.begin('A', 'K');
-  w.text(m.code, "code");
-  w.opt(m.value);
-}
-void put(Writer& w, const ErrorReply& m) {
-  w.begin('E', 'R');
-  w.i32(m.code);
-  w.opt(m.detail);
-}
-
-// serial ------------------------------------------------------------------------------------
-void put(Writer& w, const SetReportRate& m) {
-  w.begin('S', 'R');
-  w.i32(m.rate_hz);
-}
-void put(Writer& w, const Home&) { w.begin('H', 'M'); }
-void put(Writer& w, const TrajectoryBegin& m) {
-  w.begin('T', 'B');
-  w.i32(m.points);
-}
-void put(Writer& w, const TrajectoryPoint& m) {
-  w.begin('T', 'P');
-  w.i32(m.seq);
-  w.s_as_ms(m.dt_s, "dt_s");
-  for (std::int32_t s : m.steps) w.i32(s);
-  w.rad_as_cdeg(m.wrist_rad, "wrist_rad");
-  if (m.grip_rad) w.rad_as_cdeg(*m.grip_rad, "grip_rad");
-}
-void put(Writer& w, const SetGripper& m) {
-  w.begin('G', 'R');
-  w.rad_as_cdeg(m.angle_rad, "angle_rad");
-}
-void put(Writer& w, const Jog& m) {
-  w.begin('J', 'G');
-  w.i32(static_cast<std::int32_t>(m.axis));
+void put(Writer& w, const Jog& m, const field::JogDelta&) {
   if (m.axis == Axis::kWrist) {
     w.rad_as_cdeg(m.delta, "delta (rad)");
   } else {
     w.whole(m.delta, "delta (steps)");
   }
 }
-void put(Writer& w, const Config& m) {
-  w.begin('C', 'F');
-  w.i32(m.key);
-  w.opt(m.value);
-}
-void put(Writer& w, const DeviceState& m) {
-  w.begin('S', 'T');
-  w.i32(m.seq);
-  w.u32(m.t_us);
-  for (std::int32_t s : m.steps) w.i32(s);
-  w.rad_as_cdeg(m.wrist_rad, "wrist_rad");
-  w.rad_as_cdeg(m.grip_rad, "grip_rad");
-  w.u32(m.flags);
-  w.i32(m.queue_free);
-}
-void put(Writer& w, const DeviceEvent& m) {
-  w.begin('E', 'V');
-  w.i32(static_cast<std::int32_t>(m.event));
-  w.opt(m.value);
-}
-
-// TCP ---------------------------------------------------------------------------------------
-void put(Writer& w, const JointData& m) {
-  w.begin('J', 'D');
-  w.i32(m.seq);
-  w.u32(m.t_us);
-  w.joints(m.q);
-  w.robot(m.robot);
-}
-void put(Writer& w, const JointTargets& m) {
-  w.begin('T', 'J');
-  w.i32(m.seq);
-  w.u32(m.t_us);
-  w.joints(m.q);
-  w.robot(m.robot);
-}
-void put(Writer& w, const SetMode& m) {
-  w.begin('M', 'D');
-  w.text(mode_name(m.mode), "mode");
-  w.robot(m.robot);
-}
-void put(Writer& w, const SetTwinPhase& m) {
-  w.begin('T', 'W');
-  w.text(phase_name(m.phase), "phase");
-  w.robot(m.robot);
-}
-void put(Writer& w, const Grasp& m) {
-  w.begin('G', 'R');
-  w.i32(m.close ? 1 : 0);
-  w.robot(m.robot);
-}
-void put(Writer& w, const CameraShoot& m) {
-  w.begin('C', 'S');
-  if (m.width_px != 0 || m.height_px != 0) {
-    w.i32(m.width_px);
-    w.i32(m.height_px);
-  }
-}
-void put(Writer& w, const SpawnCube& m) {
-  w.begin('S', 'C');
-  w.text(color_name(m.color), "color");
-  w.m_as_mm(m.x_m, "x_m");
-  w.m_as_mm(m.y_m, "y_m");
-}
-void put(Writer& w, const ResetScene&) { w.begin('R', 'S'); }
-void put(Writer& w, const QueryObjects& m) {
-  w.begin('O', 'P');
-  w.opt(m.id);
-}
-void put(Writer& w, const JointApplied& m) {
-  w.begin('J', 'A');
-  w.i32(m.seq);
-  w.u32(m.t_apply_us);
-  w.robot(m.robot);
-}
-void put(Writer& w, const GripperState& m) {
-  w.begin('G', 'R');
-  w.i32(m.closed ? 1 : 0);
-  w.i32(m.held_id);
-  w.robot(m.robot);
-}
-void put(Writer& w, const Image& m) {
-  w.begin('I', 'M');
-  w.i32(static_cast<std::int32_t>(m.png.size()));
-}
-void put(Writer& w, const ObjectPose& m) {
-  w.begin('O', 'P');
-  w.i32(m.id);
-  w.text(color_name(m.color), "color");
-  w.m_as_mm(m.x_m, "x_m");
-  w.m_as_mm(m.y_m, "y_m");
-  w.m_as_mm(m.z_m, "z_m");
-  w.rad_as_deg(m.yaw_rad, "yaw_rad");
-}
-void put(Writer& w, const SimState& m) {
-  w.begin('S', 'T');
-  w.i32(m.seq);
-  w.u32(m.t_us);
-  w.joints(m.q);
-  w.i32(m.grip_closed ? 1 : 0);
-  w.i32(m.held_id);
-  w.text(mode_name(m.mode), "mode");
-  w.robot(m.robot);
-}
-void put(Writer& w, const JointWarning& m) {
-  w.begin('J', 'W');
-  w.i32(m.joint);
+void put(Writer& w, const JointWarning& m, const field::WarningValue&) {
   if (m.joint == 1) {
     w.m_as_mm(m.value, "value (m)");
   } else {
     w.rad_as_deg(m.value, "value (rad)");
   }
-  w.robot(m.robot);
+}
+void put(Writer& w, const CameraShoot& m, const field::ShotSize&) {
+  if (m.width_px != 0 || m.height_px != 0) {
+    w.i32(m.width_px);
+    w.i32(m.height_px);
+  }
+}
+void put(Writer& w, const Image& m, const field::PayloadSize&) {
+  w.i32(static_cast<std::int32_t>(m.png.size()));
+}
+
+// A packet: its code, then its fields in their row's order.
+template <class M>
+void put_packet(Writer& w, const M& m) {
+  w.begin(M::kCode[0], M::kCode[1]);
+  std::apply([&](const auto&... f) { (put(w, m, f), ...); }, M::fields());
 }
 
 template <typename Direction>
@@ -320,7 +242,7 @@ Status append_any(std::string& out, const Direction& message) {
   Writer w(detail::link_of<Direction>(), buffer, sizeof buffer);
   std::visit(
       [&w](const auto& m) {
-        if constexpr (!std::is_same_v<std::decay_t<decltype(m)>, RealtimeCommand>) put(w, m);
+        if constexpr (!std::is_same_v<std::decay_t<decltype(m)>, RealtimeCommand>) put_packet(w, m);
       },
       message);
   Status s = w.finish(out);
@@ -342,24 +264,6 @@ Result<std::string> encode_any(const Direction& message) {
 }
 
 }  // namespace
-
-const char* mode_name(SimMode mode) { return mode == SimMode::kMirror ? "mirror" : "simulate"; }
-
-const char* phase_name(TwinPhase phase) {
-  switch (phase) {
-    case TwinPhase::kMirror:
-      return "mirror";
-    case TwinPhase::kControl:
-      return "control";
-    case TwinPhase::kPrediction:
-      return "prediction";
-    case TwinPhase::kHoming:
-      return "homing";
-    case TwinPhase::kNone:
-      break;
-  }
-  return "none";
-}
 
 Result<std::string> encode(const SerialToDevice& m) { return encode_any(m); }
 Result<std::string> encode(const SerialFromDevice& m) { return encode_any(m); }

@@ -1,62 +1,45 @@
 // Which packet answers which request: see scaratwin/protocol/replies.hpp.
 #include "scaratwin/protocol/replies.hpp"
 
+#include <array>
+#include <cstddef>
 #include <type_traits>
 #include <variant>
+
+#include "packet_table.hpp"
 
 namespace scaratwin::protocol {
 namespace {
 
-constexpr ReplyRule kTcpRules[] = {
-    {"HI", "HI"},
-    {"JD", "JA", false, true},
-    {"TJ", "JA", false, true},
-    {"GR", "GR"},
-    {"CS", "IM"},
-    {"OP", "OP", true},
-    {"QS", "ST"},
-};
-
-constexpr ReplyRule kSerialRules[] = {
-    {"HI", "HI"},
-    {"QS", "ST"},
-};
-
-template <typename T>
-constexpr std::string_view code_of_type() {
-  if constexpr (std::is_same_v<T, PeerHello>) {
-    return "HI";
-  } else if constexpr (std::is_same_v<T, JointApplied>) {
-    return "JA";
-  } else if constexpr (std::is_same_v<T, GripperState>) {
-    return "GR";
-  } else if constexpr (std::is_same_v<T, Image>) {
-    return "IM";
-  } else if constexpr (std::is_same_v<T, ObjectPose>) {
-    return "OP";
-  } else if constexpr (std::is_same_v<T, SimState> || std::is_same_v<T, DeviceState>) {
-    return "ST";
-  } else if constexpr (std::is_same_v<T, JointWarning>) {
-    return "JW";
-  } else if constexpr (std::is_same_v<T, DeviceEvent>) {
-    return "EV";
-  } else if constexpr (std::is_same_v<T, Ack>) {
-    return "AK";
-  } else if constexpr (std::is_same_v<T, ErrorReply>) {
-    return "ER";
-  } else {
-    return {};
+// The reply rows of a direction's requests (their `kReply`), in the variant's order.
+template <class Direction>
+struct RuleRows;
+template <class... Ts>
+struct RuleRows<std::variant<Ts...>> {
+  static constexpr std::size_t kCount = (0 + ... + (table::Request<Ts> ? 1 : 0));
+  static constexpr std::array<ReplyRule, kCount> make() {
+    std::array<ReplyRule, kCount> out{};
+    std::size_t i = 0;
+    const auto add = [&]<class T>(T*) {
+      if constexpr (table::Request<T>) {
+        out[i++] = ReplyRule{T::kCode, T::kReply.code, T::kReply.partial, T::kReply.same_seq};
+      }
+    };
+    (add(static_cast<Ts*>(nullptr)), ...);
+    return out;
   }
-}
+};
+
+constexpr auto kTcpRules = RuleRows<TcpToSim>::make();
+constexpr auto kSerialRules = RuleRows<SerialToDevice>::make();
 
 template <typename Variant>
 std::string_view code_of_variant(const Variant& message) {
   return std::visit(
       [](const auto& m) -> std::string_view {
         using T = std::decay_t<decltype(m)>;
-        constexpr std::string_view code = code_of_type<T>();
-        static_assert(code.size() == 2, "a received message type without its code");
-        return code;
+        static_assert(table::Packet<T>, "a received message type without its row");
+        return T::kCode;
       },
       message);
 }

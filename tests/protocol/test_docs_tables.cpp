@@ -1,6 +1,6 @@
 // docs/protocol.md's code tables (sections 7 and 8) against the code tables the codec runs on
-// (kSerialHostToDevice, kSerialDeviceToHost, kTcpHubToSim, kTcpSimToHub in
-// src/protocol/code_tables.hpp): the same codes in each direction, the same required and
+// (kSerialHostToDevice, kSerialDeviceToHost, kTcpHubToSim, kTcpSimToHub, built from the packet
+// structs' rows in messages.hpp): the same codes in each direction, the same required and
 // optional field counts (a field in [brackets] is optional), and, where the docs name a
 // field's kind (i32, u32, dec, text), the same kind. The docs are read as a reader reads them:
 // the table under each direction's heading, one row per code.

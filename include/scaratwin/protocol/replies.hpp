@@ -1,5 +1,6 @@
 // Which packet answers which request (docs/protocol.md sections 7 and 8, the tables' "reply"
-// column): one table per link. The channel (scaratwin/transport/channel.hpp) matches each
+// column): one table per link, built from the requests' rows (their `kReply`, messages.hpp).
+// The channel (scaratwin/transport/channel.hpp) matches each
 // packet it receives to the oldest request it answers with reply_match(); the docs test
 // (tests/protocol/test_docs_tables.cpp) checks the tables against the docs. Two rules hold on
 // every link and are not rows: an `ER` answers the oldest request, and an `AK` answers the
