@@ -16,6 +16,29 @@ cmake --preset ci
 mkdir -p build
 # what failed; the run goes on to the end, so that one CI run tells about everything
 failures=()
+# The names of the tests that failed in a ctest run (its build directory), on one line.
+failed_tests() {
+  sed 's/^[0-9]*://' "$1/Testing/Temporary/LastTestsFailed.log" 2>/dev/null | paste -sd ' ' ||
+    true
+}
+# The last lines of each failed test's output (from ctest's LastTest.log), kept for the end of
+# the run, where a truncated log still shows them.
+failed_outputs=build/failed-tests.log
+save_failed_output() {
+  local dir=$1 names
+  names=$(failed_tests "$dir")
+  [[ -n "$names" ]] || return 0
+  awk -v names=" $names " '
+    / Testing: / { name = $NF; keep = index(names, " " name " ") > 0; n = 0; next }
+    keep && /^Test (Passed|Failed)|^<end of output>/ {
+      printf "---- output of %s (its last %d lines)\n", name, n
+      for (i = 1; i <= n; ++i) print buf[i]
+      keep = 0; next
+    }
+    keep { if (n == 40) { for (i = 1; i < 40; ++i) buf[i] = buf[i + 1]; n = 39 } buf[++n] = $0 }
+  ' "$dir/Testing/Temporary/LastTest.log" >>"$failed_outputs" 2>/dev/null || true
+}
+rm -f "$failed_outputs"
 # Waits for a job started beside the main work, prints its log, and notes a failure.
 collect() {
   local name=$1 pid=$2 log=$3 rc=0
@@ -99,8 +122,8 @@ suites=0
 ctest --preset ci -j "$jobs" -LE long -E "$first_test" || suites=$?
 if [[ $suites != 0 ]]; then
   # name the failed tests at the end, where a truncated log still shows them
-  failed_list=$(sed 's/^[0-9]*://' build/ci/Testing/Temporary/LastTestsFailed.log 2>/dev/null |
-    paste -sd ' ' || true)
+  failed_list=$(failed_tests build/ci)
+  save_failed_output build/ci
   failures+=("the test suites: ctest exit $suites; failed: ${failed_list:-(see the log)}")
 fi
 
@@ -114,13 +137,14 @@ if [[ "${SCARATWIN_TEST_TSAN:-1}" != 0 ]]; then
   tsan_suites='LineSplitter|Tcp|IoThread|Serial|SequenceTracker|LinkCounters|Statements|Channel'
   tsan_suites+='|WebServer|HttpTest|Feed|Commands|FakeRobotTest|FakeRobotHub|HubRobots'
   if ! ctest --preset tsan --no-tests=error -j "$jobs" -R "^(${tsan_suites})\\."; then
-    failed_list=$(sed 's/^[0-9]*://' build/tsan/Testing/Temporary/LastTestsFailed.log \
-      2>/dev/null | paste -sd ' ' || true)
+    failed_list=$(failed_tests build/tsan)
+    save_failed_output build/tsan
     failures+=("the ThreadSanitizer tests of the transports, the web server and the hub;\
  failed: ${failed_list:-(see the log)}")
   fi
 fi
 if ((${#failures[@]})); then
+  if [[ -s "$failed_outputs" ]]; then cat "$failed_outputs" >&2; fi
   printf 'error: %s\n' "${failures[@]}" >&2
   exit 1
 fi

@@ -4,6 +4,9 @@
 #include <cstdio>
 #include <filesystem>
 #include <numbers>
+#include <string>
+
+#include <unistd.h>
 
 #include <gtest/gtest.h>
 
@@ -103,7 +106,8 @@ TEST_F(SimCamera, RejectsSizesBeyondTheBufferAndSavesFiles) {
   EXPECT_FALSE(camera_->render(*sim_, 0, 10).ok());
   auto img = camera_->render(*sim_, 64, 48);
   ASSERT_TRUE(img.ok());
-  const auto path = std::filesystem::temp_directory_path() / "scaratwin_test_camera.png";
+  const auto path = std::filesystem::temp_directory_path() /
+                    ("scaratwin_test_camera_" + std::to_string(::getpid()) + ".png");
   ASSERT_TRUE(save_png(*img, path.string()).ok());
   EXPECT_GT(std::filesystem::file_size(path), 8u);
   std::filesystem::remove(path);
@@ -189,8 +193,11 @@ TEST(SimCameraRoll, CubesAreWhereTheTurnedCameraProjectsThem) {
   for (const CubeState& c : (*sim)->cubes()) {
     const PixelPoint p = project(turned, turned.width_px, turned.height_px, c.pos_m);
     ASSERT_TRUE(p.visible) << color_name(c.color);
-    EXPECT_EQ(dominant(pixel(*decoded, p.u_px, p.v_px)), static_cast<int>(c.color))
-        << color_name(c.color) << " cube at (" << p.u_px << ", " << p.v_px << ")";
+    const Rgb px = pixel(*decoded, p.u_px, p.v_px);
+    EXPECT_EQ(dominant(px), static_cast<int>(c.color))
+        << color_name(c.color) << " cube at (" << c.pos_m[0] << ", " << c.pos_m[1] << ", "
+        << c.pos_m[2] << ") m, seen at (" << p.u_px << ", " << p.v_px << ") px, looks " << px.r
+        << "," << px.g << "," << px.b;
     const PixelPoint q = project(upright, turned.width_px, turned.height_px, c.pos_m);
     EXPECT_GT(std::hypot(p.u_px - q.u_px, p.v_px - q.v_px), 30.0) << color_name(c.color);
   }
