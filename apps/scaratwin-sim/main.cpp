@@ -11,6 +11,7 @@
 #include <CLI/CLI.hpp>
 
 #include "scaratwin/config/robot_config.hpp"
+#include "scaratwin/config/workcell_config.hpp"
 #include "scaratwin/core/units.hpp"
 #include "scaratwin/fleet/fleet_watch.hpp"
 #include "scaratwin/sim/companion.hpp"
@@ -26,6 +27,7 @@ extern "C" void on_signal(int) { g_stop = 1; }
 
 struct Args {
   std::string config_path;
+  std::string workcell_path;
   std::string bind = "127.0.0.1";
   int port = 55016;
   std::string speed = "real";
@@ -88,6 +90,10 @@ int main(int argc, char** argv) {
   app.add_option("--config", a.config_path,
                  "robot description (TOML); default: "
                  "$SCARATWIN_CONFIG or config/scara.toml");
+  app.add_option("--workcell", a.workcell_path,
+                 "a workcell of several robots on one table (TOML, e.g. config/two_arms.toml; "
+                 "docs/workcell.md) instead of --config: robot-addressed packets carry the "
+                 "robot's index (docs/protocol.md section 11.3)");
   app.add_option("--bind", a.bind, "address to listen on")->capture_default_str();
   app.add_option("--port", a.port, "TCP port (0: any free port, printed)")->capture_default_str();
   app.add_option("--speed", a.speed,
@@ -130,8 +136,21 @@ int main(int argc, char** argv) {
                  "mqtt://[USER[:PASSWORD]@]HOST[:PORT] (docs/fleet.md)");
   CLI11_PARSE(app, argc, argv);
 
-  auto robot = load_robot_config_or_default(a.config_path);
-  if (!robot) return fail(robot.error().message);
+  if (!a.config_path.empty() && !a.workcell_path.empty()) {
+    return fail(
+        "--config and --workcell: give one (the workcell file names each robot's "
+        "description)");
+  }
+  Workcell workcell;
+  if (!a.workcell_path.empty()) {
+    auto cell = load_workcell_config(a.workcell_path);
+    if (!cell) return fail(cell.error().message);
+    workcell = std::move(*cell);
+  } else {
+    auto one = load_robot_config_or_default(a.config_path);
+    if (!one) return fail(one.error().message);
+    workcell = single_robot_workcell(*one);
+  }
   sim::WorldOptions wo;
   if (a.speed == "real") {
     wo.speed = 1.0;
@@ -154,9 +173,9 @@ int main(int argc, char** argv) {
                   &so.mjcf.offscreen_height_px) != 2) {
     return fail(fmt::format("--max-image '{}': expected WxH, e.g. 1280x960", a.max_image));
   }
-  so.mjcf.offscreen_width_px = std::max(so.mjcf.offscreen_width_px, robot->scene.camera.width_px);
+  so.mjcf.offscreen_width_px = std::max(so.mjcf.offscreen_width_px, workcell.scene.camera.width_px);
   so.mjcf.offscreen_height_px =
-      std::max(so.mjcf.offscreen_height_px, robot->scene.camera.height_px);
+      std::max(so.mjcf.offscreen_height_px, workcell.scene.camera.height_px);
   wo.camera = !a.no_camera;
   wo.render.shadows = a.shadows;
   wo.png_level = a.png_level;
@@ -167,10 +186,12 @@ int main(int argc, char** argv) {
     return fail(fmt::format("--mode '{}': expected mirror or simulate", a.mode));
   }
 
-  auto world = sim::World::create(*robot, so, wo);
+  auto world = sim::World::create(workcell, so, wo);
   if (!world) return fail(world.error().message, 1);
   if (a.mode == "simulate") {
-    (*world)->with_simulation([](sim::Simulation& s) { s.set_mode(sim::Mode::kSimulate); });
+    (*world)->with_simulation([](sim::Simulation& s) {
+      for (int r = 0; r < s.robot_count(); ++r) s.set_mode(sim::Mode::kSimulate, r);
+    });
   }
   for (const std::string& spec : a.spawn) {
     char color[16] = {0};
@@ -207,8 +228,9 @@ int main(int argc, char** argv) {
   serve.port = static_cast<std::uint16_t>(a.port);
   serve.save_images_dir = a.save_images;
   web::LinkMonitor link_monitor;
+  // the page's link panel is robot 0's (in a workcell, the other robots' frames are theirs)
   serve.on_joint_frame = [&link_monitor](const sim::JointFrame& f) {
-    link_monitor.on_joint_frame(f.seq, f.t_us, f.q, f.applied_us);
+    if (f.robot == 0) link_monitor.on_joint_frame(f.seq, f.t_us, f.q, f.applied_us);
   };
   // a new hub (its hello) or a mode switch starts a new stream of frames, decided on the
   // server's thread in order with the frames (the feed's polling of the connection state can
@@ -312,8 +334,7 @@ int main(int argc, char** argv) {
           static_cast<unsigned long long>(c.packets),
           static_cast<unsigned long long>(c.errors_sent),
           static_cast<unsigned long long>(c.images_sent),
-          static_cast<unsigned long long>(s.warnings_total),
-          phase.empty() ? "-" : phase.c_str());
+          static_cast<unsigned long long>(s.warnings_total), phase.empty() ? "-" : phase.c_str());
       std::fflush(stdout);
     }
   }

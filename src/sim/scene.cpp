@@ -17,17 +17,26 @@ Error sim_error(SimError code, std::string message) {
 }  // namespace
 
 void Simulation::park(int k) {
-  const int a = ids_.cube_qpos[k];
-  for (int i = 0; i < 7; ++i) d_->qpos[a + i] = m_->qpos0[a + i];
-  for (int i = 0; i < 6; ++i) d_->qvel[ids_.cube_dof[k] + i] = 0.0;
-  const int g = ids_.cube_geom[k];
+  const int q = cube_qpos_[k];
+  for (int i = 0; i < 7; ++i) d_->qpos[q + i] = m_->qpos0[q + i];
+  for (int i = 0; i < 6; ++i) d_->qvel[cube_dof_[k] + i] = 0.0;
+  const int g = cube_geom_[k];
   m_->geom_contype[g] = 0;
   m_->geom_conaffinity[g] = 0;
-  if (held_ == k) {
-    m_->eq_active[ids_.cube_weld[k]] = 0;
-    held_ = -1;
+  for (Arm& a : arms_) {
+    if (a.held == k) {
+      m_->eq_active[a.cube_weld[k]] = 0;
+      a.held = -1;
+    }
   }
   active_[k] = 0;
+}
+
+int Simulation::holder_of(int k) const {
+  for (std::size_t r = 0; r < arms_.size(); ++r) {
+    if (arms_[r].held == k) return static_cast<int>(r);
+  }
+  return -1;
 }
 
 Result<CubeState> Simulation::spawn_cube(CubeColor color, double x_m, double y_m, double yaw_rad) {
@@ -39,7 +48,7 @@ Result<CubeState> Simulation::spawn_cube(CubeColor color, double x_m, double y_m
   if (!std::isfinite(x_m) || !std::isfinite(y_m) || !std::isfinite(yaw_rad)) {
     return sim_error(SimError::kBadArgument, "spawn position and yaw must be finite");
   }
-  const double cube = robot_.scene.cube_size_m;
+  const double cube = workcell_.scene.cube_size_m;
   const int table = mj_name2id(m_, mjOBJ_GEOM, "table");
   SCARATWIN_CHECK(table >= 0, "generated model lacks the table");
   const double* tp = m_->geom_pos + 3 * table;
@@ -56,9 +65,9 @@ Result<CubeState> Simulation::spawn_cube(CubeColor color, double x_m, double y_m
   const double min_dist = cube * std::sqrt(2.0);
   for (std::size_t k = 0; k < active_.size(); ++k) {
     if (!active_[k]) continue;
-    const double* p = d_->qpos + ids_.cube_qpos[k];
+    const double* p = d_->qpos + cube_qpos_[k];
     if (std::hypot(p[0] - x_m, p[1] - y_m) < min_dist &&
-        std::abs(p[2] - robot_.scene.table_z_m) < 2 * cube) {
+        std::abs(p[2] - workcell_.scene.table_z_m) < 2 * cube) {
       return sim_error(SimError::kOccupied,
                        fmt::format("spawn at ({:.4f}, {:.4f}) m overlaps cube {} at ({:.4f}, "
                                    "{:.4f}) m; keep {:.4f} m between centres",
@@ -78,20 +87,22 @@ Result<CubeState> Simulation::spawn_cube(CubeColor color, double x_m, double y_m
                                  "cubes_per_color",
                                  pool_per_color_, color_name(color)));
   }
-  const int a = ids_.cube_qpos[k];
+  const int q = cube_qpos_[k];
   // resting on the table (2 mm above, so that a tray floor is not intersected)
-  d_->qpos[a + 0] = x_m;
-  d_->qpos[a + 1] = y_m;
-  d_->qpos[a + 2] = robot_.scene.table_z_m + 0.5 * cube + 0.002;
-  d_->qpos[a + 3] = std::cos(0.5 * yaw_rad);
-  d_->qpos[a + 4] = 0.0;
-  d_->qpos[a + 5] = 0.0;
-  d_->qpos[a + 6] = std::sin(0.5 * yaw_rad);
-  for (int i = 0; i < 6; ++i) d_->qvel[ids_.cube_dof[k] + i] = 0.0;
-  m_->geom_contype[ids_.cube_geom[k]] = geom_contype_[k];
-  m_->geom_conaffinity[ids_.cube_geom[k]] = geom_conaffinity_[k];
+  d_->qpos[q + 0] = x_m;
+  d_->qpos[q + 1] = y_m;
+  d_->qpos[q + 2] = workcell_.scene.table_z_m + 0.5 * cube + 0.002;
+  d_->qpos[q + 3] = std::cos(0.5 * yaw_rad);
+  d_->qpos[q + 4] = 0.0;
+  d_->qpos[q + 5] = 0.0;
+  d_->qpos[q + 6] = std::sin(0.5 * yaw_rad);
+  for (int i = 0; i < 6; ++i) d_->qvel[cube_dof_[k] + i] = 0.0;
+  m_->geom_contype[cube_geom_[k]] = geom_contype_[k];
+  m_->geom_conaffinity[cube_geom_[k]] = geom_conaffinity_[k];
   active_[k] = 1;
-  if (mode_ == Mode::kMirror) apply_mirror_pose();
+  for (Arm& a : arms_) {
+    if (a.mode == Mode::kMirror) apply_mirror_pose(a);
+  }
   if (Status st = forward(); !st) {
     park(k);
     return st.error();
@@ -101,8 +112,9 @@ Result<CubeState> Simulation::spawn_cube(CubeColor color, double x_m, double y_m
 
 Status Simulation::show_pattern(bool on) {
   if (pattern_geom_ < 0) {
-    return sim_error(SimError::kBadArgument,
-                     "show_pattern: this model has no pattern (build it with MjcfOptions::pattern)");
+    return sim_error(
+        SimError::kBadArgument,
+        "show_pattern: this model has no pattern (build it with MjcfOptions::pattern)");
   }
   // a static, visual-only geom: moving it in the model is enough (parked 10 m aside, out of
   // every view, like the unused cubes)
@@ -113,7 +125,7 @@ Status Simulation::show_pattern(bool on) {
 }
 
 void Simulation::reset_scene() {
-  release();
+  for (int r = 0; r < robot_count(); ++r) release(r);
   for (std::size_t k = 0; k < active_.size(); ++k) park(static_cast<int>(k));
   (void)forward();
 }
@@ -127,10 +139,10 @@ Result<CubeState> Simulation::cube(int id) const {
   CubeState s;
   s.id = id;
   s.color = CubeColor(id / pool_per_color_);
-  const double* p = d_->qpos + ids_.cube_qpos[id];
+  const double* p = d_->qpos + cube_qpos_[id];
   s.pos_m = {p[0], p[1], p[2]};
   s.quat_wxyz = {p[3], p[4], p[5], p[6]};
-  s.held = held_ == id;
+  s.held = holder_of(id) >= 0;
   return s;
 }
 
@@ -142,20 +154,25 @@ std::vector<CubeState> Simulation::cubes() const {
   return out;
 }
 
-int Simulation::cube_between_fingers() const {
-  const GripperGeometry g = gripper_geometry(robot_);
-  const double cube = robot_.scene.cube_size_m;
+int Simulation::cube_between_fingers(int robot) const {
+  const Arm& a = arm(robot);
+  const GripperGeometry g = gripper_geometry(a.robot);
+  const double cube = workcell_.scene.cube_size_m;
   // the detector: the volume the open fingers enclose around the grasp point
   const double half_x = 0.5 * (g.closed_gap_m + 2 * g.open_travel_m) - 0.5 * cube + 0.001;
   const double half_y = 0.5 * g.finger_depth_m + 0.004;
   const double half_z = 0.5 * cube;
-  const double* tp = d_->site_xpos + 3 * ids_.tool_site;
-  const double* tr = d_->site_xmat + 9 * ids_.tool_site;
+  const double* tp = d_->site_xpos + 3 * a.tool_site;
+  const double* tr = d_->site_xmat + 9 * a.tool_site;
   int best = -1;
   double best_d = INFINITY;
   for (std::size_t k = 0; k < active_.size(); ++k) {
-    if (!active_[k]) continue;
-    const double* p = d_->qpos + ids_.cube_qpos[k];
+    // a cube another robot holds is not this one's to take
+    if (!active_[k] ||
+        (holder_of(static_cast<int>(k)) >= 0 && holder_of(static_cast<int>(k)) != robot)) {
+      continue;
+    }
+    const double* p = d_->qpos + cube_qpos_[k];
     const mjtNum diff[3] = {p[0] - tp[0], p[1] - tp[1], p[2] - tp[2]};
     mjtNum local[3];
     mju_rotVecMatT(local, diff, tr);
@@ -171,25 +188,26 @@ int Simulation::cube_between_fingers() const {
   return best;
 }
 
-void Simulation::set_fingers(bool closed) {
-  gripper_closed_ = closed;
-  if (mode_ == Mode::kMirror) apply_mirror_pose();
+void Simulation::set_fingers(Arm& a, bool closed) {
+  a.gripper_closed = closed;
+  if (a.mode == Mode::kMirror) apply_mirror_pose(a);
 }
 
-GraspResult Simulation::grip() {
-  if (held_ >= 0) return GraspResult{true, held_};
-  set_fingers(true);
-  const int k = cube_between_fingers();
+GraspResult Simulation::grip(int robot) {
+  Arm& a = arm(robot);
+  if (a.held >= 0) return GraspResult{true, a.held};
+  set_fingers(a, true);
+  const int k = cube_between_fingers(robot);
   if (k < 0) return GraspResult{false, -1};
   // the weld's relative pose from the current poses, so that the cube does not jump:
   // data = anchor (3, on the cube), pose of the cube in the gripper frame (3 + 4), torquescale
-  const int b1 = ids_.gripper_body;
+  const int b1 = a.gripper_body;
   const double* p1 = d_->xpos + 3 * b1;
   const double* r1 = d_->xmat + 9 * b1;
   const double* q1 = d_->xquat + 4 * b1;
-  const double* p2 = d_->qpos + ids_.cube_qpos[k];
+  const double* p2 = d_->qpos + cube_qpos_[k];
   const double* q2 = p2 + 3;
-  mjtNum* data = m_->eq_data + mjNEQDATA * ids_.cube_weld[k];
+  mjtNum* data = m_->eq_data + mjNEQDATA * a.cube_weld[k];
   const mjtNum diff[3] = {p2[0] - p1[0], p2[1] - p1[1], p2[2] - p1[2]};
   data[0] = data[1] = data[2] = 0.0;
   mju_rotVecMatT(data + 3, diff, r1);
@@ -197,30 +215,31 @@ GraspResult Simulation::grip() {
   mju_negQuat(q1_inv, q1);
   mju_mulQuat(data + 6, q1_inv, q2);
   data[10] = 1.0;
-  held_ = k;
+  a.held = k;
   // in simulate mode the weld holds the cube with dynamics; in mirror mode the robot is
   // kinematic (its joints are overwritten every step), so the cube is carried kinematically
-  m_->eq_active[ids_.cube_weld[k]] = mode_ == Mode::kSimulate ? 1 : 0;
+  m_->eq_active[a.cube_weld[k]] = a.mode == Mode::kSimulate ? 1 : 0;
   return GraspResult{true, k};
 }
 
-void Simulation::carry_held_cube() {
-  if (held_ < 0 || mode_ != Mode::kMirror) return;
-  const int b1 = ids_.gripper_body;
-  const mjtNum* data = m_->eq_data + mjNEQDATA * ids_.cube_weld[held_];
-  mjtNum* p2 = d_->qpos + ids_.cube_qpos[held_];
+void Simulation::carry_held_cube(Arm& a) {
+  if (a.held < 0 || a.mode != Mode::kMirror) return;
+  const int b1 = a.gripper_body;
+  const mjtNum* data = m_->eq_data + mjNEQDATA * a.cube_weld[a.held];
+  mjtNum* p2 = d_->qpos + cube_qpos_[a.held];
   mju_rotVecMat(p2, data + 3, d_->xmat + 9 * b1);
   for (int i = 0; i < 3; ++i) p2[i] += d_->xpos[3 * b1 + i];
   mju_mulQuat(p2 + 3, d_->xquat + 4 * b1, data + 6);
   mju_normalize4(p2 + 3);
-  for (int i = 0; i < 6; ++i) d_->qvel[ids_.cube_dof[held_] + i] = 0.0;
+  for (int i = 0; i < 6; ++i) d_->qvel[cube_dof_[a.held] + i] = 0.0;
 }
 
-void Simulation::release() {
-  set_fingers(false);
-  if (held_ >= 0) {
-    m_->eq_active[ids_.cube_weld[held_]] = 0;
-    held_ = -1;
+void Simulation::release(int robot) {
+  Arm& a = arm(robot);
+  set_fingers(a, false);
+  if (a.held >= 0) {
+    m_->eq_active[a.cube_weld[a.held]] = 0;
+    a.held = -1;
   }
 }
 

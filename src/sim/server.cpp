@@ -28,8 +28,6 @@ constexpr const char* kSoftwareVersion = "0.1.0";
 constexpr std::int32_t kAccessToken = 1;     // token missing or wrong
 constexpr std::int32_t kAccessInUse = 2;     // another client controls the simulator
 constexpr std::int32_t kAccessObserver = 3;  // an observer may only query
-// Robots the simulator has: one, index 0 (ER,19's detail)
-constexpr std::int32_t kRobots = 1;
 
 std::uint32_t wrap_us(double seconds) {
   return static_cast<std::uint32_t>(static_cast<std::uint64_t>(std::llround(seconds * 1e6)));
@@ -49,7 +47,8 @@ struct SimServer::Impl {
   std::mutex handle_mutex;  // handle_line() from the io thread or from a test
   proto::TcpToSimDecoder decoder;
   std::uint16_t state_seq = 0;
-  std::uint32_t stream_first_us = 0;
+  // per robot: the sender's time of its prediction stream's first target
+  std::vector<std::uint32_t> stream_first_us;
   std::uint64_t shots = 0;
   std::atomic<std::uint64_t> packets{0}, errors_sent{0}, joint_frames{0}, images_sent{0},
       warnings_sent{0};
@@ -58,7 +57,10 @@ struct SimServer::Impl {
   std::string description;
 
   Impl(World& w, ServerOptions o)
-      : world(w), options(std::move(o)), description(description_hash(w.robot())) {}
+      : world(w),
+        options(std::move(o)),
+        stream_first_us(static_cast<std::size_t>(w.robot_count()), 0),
+        description(description_hash(w.robot())) {}
 
   // The hello reply: with the description hash when the hub's hello carried its own (a v1
   // hub gets a v1 reply).
@@ -81,7 +83,7 @@ struct SimServer::Impl {
   }
   void warnings(std::string& out, const std::vector<JointWarning>& ws) {
     for (const JointWarning& w : ws) {
-      put(out, proto::JointWarning{w.joint + 1, w.value});
+      put(out, proto::JointWarning{w.joint + 1, w.value, w.robot});
       ++warnings_sent;
     }
   }
@@ -106,32 +108,33 @@ struct SimServer::Impl {
   void on(std::string& out, const proto::Ping& m) { put(out, proto::Ack{"PI", m.token}); }
   // A JD/TJ with a joint no robot can have (implausible_joint()) is refused with one
   // ER,11,<field index> (d1 is field 2) and nothing is applied.
-  bool refuse_implausible(std::string& out, const JointVector& q) {
+  bool refuse_implausible(std::string& out, const JointVector& q, int robot) {
     const int j =
-        world.with_simulation([&](Simulation& s) { return implausible_joint(s.robot(), q); });
+        world.with_simulation([&](Simulation& s) { return implausible_joint(s.robot(robot), q); });
     if (j < 0) return false;
     error(out, core::kErrBadValue, 2 + j);
     return true;
   }
   void on(std::string& out, const proto::JointData& m) {
-    if (refuse_implausible(out, m.q)) return;
-    auto r = world.with_simulation([&](Simulation& s) { return s.set_joints(m.q); });
-    reply_joint(out, r, m.seq, m.t_us, m.q);
+    if (refuse_implausible(out, m.q, m.robot)) return;
+    auto r = world.with_simulation([&](Simulation& s) { return s.set_joints(m.q, m.robot); });
+    reply_joint(out, r, m.seq, m.t_us, m.q, m.robot);
   }
   void on(std::string& out, const proto::JointTargets& m) {
     // paced: a servo target now; --speed max: a timed target of a prediction stream, played
     // in lockstep as fast as possible (t_us offsets from the stream's first target)
     const bool stream = world.options().speed == 0.0;
-    if (refuse_implausible(out, m.q)) return;
+    if (refuse_implausible(out, m.q, m.robot)) return;
     auto r = world.with_simulation([&](Simulation& s) {
-      if (!stream) return s.hold(m.q);
-      if (!s.stream_open()) stream_first_us = m.t_us;
-      return s.stream_target(static_cast<std::uint32_t>(m.t_us - stream_first_us) * 1e-6, m.q);
+      if (!stream) return s.hold(m.q, m.robot);
+      std::uint32_t& first_us = stream_first_us[static_cast<std::size_t>(m.robot)];
+      if (!s.stream_open(m.robot)) first_us = m.t_us;
+      return s.stream_target(static_cast<std::uint32_t>(m.t_us - first_us) * 1e-6, m.q, m.robot);
     });
-    reply_joint(out, r, m.seq, m.t_us, m.q);
+    reply_joint(out, r, m.seq, m.t_us, m.q, m.robot);
   }
   void reply_joint(std::string& out, const Result<std::vector<JointWarning>>& r, std::uint16_t seq,
-                   std::uint32_t t_us, const JointVector& q) {
+                   std::uint32_t t_us, const JointVector& q, int robot) {
     if (!r) {
       error(out, r.error().code == static_cast<int>(SimError::kWrongMode) ? core::kErrBusy
                                                                           : core::kErrBadValue);
@@ -140,13 +143,15 @@ struct SimServer::Impl {
     ++joint_frames;
     warnings(out, *r);
     const std::int64_t applied_us = transport::steady_now_us();
-    if (options.on_joint_frame) options.on_joint_frame(JointFrame{seq, t_us, q, applied_us});
-    put(out, proto::JointApplied{seq, static_cast<std::uint32_t>(applied_us)});
+    if (options.on_joint_frame) {
+      options.on_joint_frame(JointFrame{seq, t_us, q, applied_us, robot});
+    }
+    put(out, proto::JointApplied{seq, static_cast<std::uint32_t>(applied_us), robot});
   }
   void on(std::string& out, const proto::SetMode& m) {
     if (options.on_new_stream) options.on_new_stream();
     world.with_simulation([&](Simulation& s) {
-      s.set_mode(m.mode == proto::SimMode::kMirror ? Mode::kMirror : Mode::kSimulate);
+      s.set_mode(m.mode == proto::SimMode::kMirror ? Mode::kMirror : Mode::kSimulate, m.robot);
     });
     put(out, proto::Ack{"MD", std::nullopt});
   }
@@ -161,19 +166,19 @@ struct SimServer::Impl {
   }
   void on(std::string& out, const proto::Grasp& m) {
     const GripperStateValue g = world.with_simulation([&](Simulation& s) {
-      if (s.stream_open()) {
+      if (s.stream_open(m.robot)) {
         // at the stream's last target; the reply tells the state it will have then
-        s.queue_gripper(m.close ? GripperAction::kGrip : GripperAction::kRelease);
-        return GripperStateValue{m.close, s.held_cube()};
+        s.queue_gripper(m.close ? GripperAction::kGrip : GripperAction::kRelease, m.robot);
+        return GripperStateValue{m.close, s.held_cube(m.robot)};
       }
       if (m.close) {
-        (void)s.grip();
+        (void)s.grip(m.robot);
       } else {
-        s.release();
+        s.release(m.robot);
       }
-      return GripperStateValue{s.gripper_closed(), s.held_cube()};
+      return GripperStateValue{s.gripper_closed(m.robot), s.held_cube(m.robot)};
     });
-    put(out, proto::GripperState{g.closed, g.held});
+    put(out, proto::GripperState{g.closed, g.held, m.robot});
   }
   struct GripperStateValue {
     bool closed;
@@ -229,7 +234,10 @@ struct SimServer::Impl {
   void on(std::string& out, const proto::ResetScene&) {
     Status st = world.with_simulation([](Simulation& s) {
       s.reset_scene();
-      return s.reset_robot();
+      for (int r = 0; r < s.robot_count(); ++r) {
+        if (Status one = s.reset_robot(r); !one) return one;
+      }
+      return Status{Ok{}};
     });
     if (!st) {
       error(out, core::kErrInternal);
@@ -261,20 +269,21 @@ struct SimServer::Impl {
     }
     put(out, proto::Ack{"OP", static_cast<std::int32_t>(cubes.size())});
   }
-  void on(std::string& out, const proto::QueryState&) {
+  void on(std::string& out, const proto::QueryState& m) {
     proto::SimState st;
+    st.robot = m.robot;
     world.with_simulation([&](Simulation& s) {
       st.seq = state_seq++;
       st.t_us = wrap_us(s.time_s());
-      st.q = s.joints();
-      st.grip_closed = s.gripper_closed();
-      st.held_id = s.held_cube();
-      st.mode = to_wire(s.mode());
+      st.q = s.joints(m.robot);
+      st.grip_closed = s.gripper_closed(m.robot);
+      st.held_id = s.held_cube(m.robot);
+      st.mode = to_wire(s.mode(m.robot));
     });
     put(out, st);
   }
-  void on(std::string& out, const proto::Stop&) {
-    world.with_simulation([](Simulation& s) { s.stop(); });
+  void on(std::string& out, const proto::Stop& m) {
+    world.with_simulation([&](Simulation& s) { s.stop(m.robot); });
     put(out, proto::Ack{"SP", std::nullopt});
   }
 
@@ -377,12 +386,12 @@ struct SimServer::Impl {
   }
 
   // A robot-addressed packet (protocol v2) for a robot the simulator does not have is
-  // refused with ER,19,<robots it has>, and nothing of it is applied; robot 0 is the one.
+  // refused with ER,19,<robots it has>, and nothing of it is applied.
   template <typename M>
   void dispatch(std::string& out, const M& m) {
     if constexpr (requires { m.robot; }) {
-      if (m.robot != 0) {
-        error(out, core::kErrNoRobot, kRobots);
+      if (m.robot < 0 || m.robot >= world.robot_count()) {
+        error(out, core::kErrNoRobot, world.robot_count());
         return;
       }
     }

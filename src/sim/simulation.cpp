@@ -80,19 +80,44 @@ Simulation::~Simulation() {
 
 Result<std::unique_ptr<Simulation>> Simulation::create(const RobotModel& robot,
                                                        const SimOptions& options) {
+  if (Status v = validate(robot); !v) return sim_error(SimError::kBadArgument, v.error().message);
+  return create(single_robot_workcell(robot), options);
+}
+
+Result<std::unique_ptr<Simulation>> Simulation::create(const Workcell& workcell,
+                                                       const SimOptions& options) {
   std::unique_ptr<Simulation> s(new Simulation());
-  if (Status st = s->init(robot, options); !st) return st.error();
+  if (Status st = s->init(workcell, options); !st) return st.error();
   return s;
 }
 
-Status Simulation::init(const RobotModel& robot, const SimOptions& options) {
-  if (Status v = validate(robot); !v) return sim_error(SimError::kBadArgument, v.error().message);
+const Simulation::Arm& Simulation::arm(int robot) const {
+  SCARATWIN_CHECK(robot >= 0 && robot < static_cast<int>(arms_.size()),
+                  "robot index out of range (check_robot() first)");
+  return arms_[static_cast<std::size_t>(robot)];
+}
+
+Simulation::Arm& Simulation::arm(int robot) {
+  return const_cast<Arm&>(static_cast<const Simulation*>(this)->arm(robot));
+}
+
+Status Simulation::check_robot(int robot) const {
+  if (robot >= 0 && robot < static_cast<int>(arms_.size())) return Ok{};
+  return sim_error(SimError::kNoRobot,
+                   fmt::format("no robot {} in this simulation: it has {} ({}, indices 0..{})",
+                               robot, arms_.size(), robot_names(workcell_), arms_.size() - 1));
+}
+
+Status Simulation::init(const Workcell& workcell, const SimOptions& options) {
+  if (Status v = validate(workcell); !v) {
+    return sim_error(SimError::kBadArgument, v.error().message);
+  }
   if (options.tool_path_points == 0 || !(options.tool_path_dt_s > 0.0)) {
     return sim_error(SimError::kBadArgument, "tool_path_points must be > 0 and tool_path_dt_s > 0");
   }
-  robot_ = robot;
+  workcell_ = workcell;
   options_ = options;
-  auto xml = make_mjcf(robot, options.mjcf);
+  auto xml = make_mjcf(workcell, options.mjcf);
   if (!xml) return sim_error(SimError::kBadArgument, xml.error().message);
   mjcf_ = std::move(*xml);
   pool_per_color_ = options.mjcf.cubes_per_color;
@@ -100,7 +125,7 @@ Status Simulation::init(const RobotModel& robot, const SimOptions& options) {
   // the printed pattern's texture, drawn from the description
   std::vector<std::uint8_t> pattern_png;
   if (options.mjcf.pattern) {
-    auto sheet = pattern_sheet(robot.scene.pattern);
+    auto sheet = pattern_sheet(workcell.scene.pattern);
     if (!sheet) return sim_error(SimError::kBadArgument, sheet.error().message);
     auto png = encode_png(Image{sheet->image.width, sheet->image.height, sheet->image.rgb});
     if (!png) return png.error();
@@ -156,32 +181,48 @@ Status Simulation::init(const RobotModel& robot, const SimOptions& options) {
     SCARATWIN_CHECK(i >= 0, "generated model lacks a named element");
     return i;
   };
-  static constexpr const char* kJ[] = {"j1", "j2", "j3", "j4"};
-  for (int j = 0; j < kNumJoints; ++j) {
-    const int jid = id(mjOBJ_JOINT, kJ[j]);
-    ids_.qpos[j] = m_->jnt_qposadr[jid];
-    ids_.dof[j] = m_->jnt_dofadr[jid];
-    ids_.actuator[j] = id(mjOBJ_ACTUATOR, kJ[j]);
-  }
-  for (int f = 0; f < 2; ++f) {
-    const int jid = id(mjOBJ_JOINT, kFingerJoints[f]);
-    ids_.finger_qpos[f] = m_->jnt_qposadr[jid];
-    ids_.finger_dof[f] = m_->jnt_dofadr[jid];
-    ids_.actuator[kNumJoints + f] = id(mjOBJ_ACTUATOR, kFingerJoints[f]);
-  }
-  ids_.tool_site = id(mjOBJ_SITE, kToolSite);
-  ids_.gripper_body = id(mjOBJ_BODY, kGripperBody);
   const int n = kNumColors * pool_per_color_;
   for (int k = 0; k < n; ++k) {
     const std::string name = cube_body_name(CubeColor(k / pool_per_color_), k % pool_per_color_);
     const int b = id(mjOBJ_BODY, name);
-    ids_.cube_body.push_back(b);
-    ids_.cube_qpos.push_back(m_->jnt_qposadr[m_->body_jntadr[b]]);
-    ids_.cube_dof.push_back(m_->jnt_dofadr[m_->body_jntadr[b]]);
-    ids_.cube_geom.push_back(m_->body_geomadr[b]);
-    ids_.cube_weld.push_back(id(mjOBJ_EQUALITY, "hold_" + name));
+    cube_body_.push_back(b);
+    cube_qpos_.push_back(m_->jnt_qposadr[m_->body_jntadr[b]]);
+    cube_dof_.push_back(m_->jnt_dofadr[m_->body_jntadr[b]]);
+    cube_geom_.push_back(m_->body_geomadr[b]);
     geom_contype_.push_back(m_->geom_contype[m_->body_geomadr[b]]);
     geom_conaffinity_.push_back(m_->geom_conaffinity[m_->body_geomadr[b]]);
+  }
+  // each robot's elements: unprefixed for a single robot (the robot's own model), "<name>/"
+  // before each name with more (make_mjcf(Workcell))
+  static constexpr const char* kJ[] = {"j1", "j2", "j3", "j4"};
+  const bool prefixed = workcell.robots.size() > 1;
+  for (const RobotInstance& r : workcell.robots) {
+    const std::string pre = prefixed ? r.name + "/" : std::string();
+    Arm a;
+    a.name = r.name;
+    a.base = r.base;
+    a.robot = r.model;
+    a.robot.scene = workcell.scene;
+    for (int j = 0; j < kNumJoints; ++j) {
+      const int jid = id(mjOBJ_JOINT, pre + kJ[j]);
+      a.qpos[j] = m_->jnt_qposadr[jid];
+      a.dof[j] = m_->jnt_dofadr[jid];
+      a.actuator[j] = id(mjOBJ_ACTUATOR, pre + kJ[j]);
+    }
+    for (int f = 0; f < 2; ++f) {
+      const int jid = id(mjOBJ_JOINT, pre + kFingerJoints[f]);
+      a.finger_qpos[f] = m_->jnt_qposadr[jid];
+      a.finger_dof[f] = m_->jnt_dofadr[jid];
+      a.actuator[kNumJoints + f] = id(mjOBJ_ACTUATOR, pre + kFingerJoints[f]);
+    }
+    a.tool_site = id(mjOBJ_SITE, pre + kToolSite);
+    a.gripper_body = id(mjOBJ_BODY, pre + kGripperBody);
+    for (int k = 0; k < n; ++k) {
+      const std::string name = cube_body_name(CubeColor(k / pool_per_color_), k % pool_per_color_);
+      a.cube_weld.push_back(id(mjOBJ_EQUALITY, pre + "hold_" + name));
+    }
+    a.target = a.robot.home;
+    arms_.push_back(std::move(a));
   }
   active_.assign(n, 0);
   for (int k = 0; k < n; ++k) park(k);
@@ -190,10 +231,7 @@ Status Simulation::init(const RobotModel& robot, const SimOptions& options) {
     for (int i = 0; i < 3; ++i) pattern_pos_[i] = m_->geom_pos[3 * pattern_geom_ + i];
     pattern_shown_ = true;
   }
-
-  target_ = robot_.home;
-  gripper_closed_ = false;
-  apply_mirror_pose();
+  for (Arm& a : arms_) apply_mirror_pose(a);
   return forward();
 }
 
@@ -217,27 +255,24 @@ Result<std::unique_ptr<Simulation>> Simulation::clone() const {
   }
   s->m_ = copy.m;
   s->d_ = copy.d;
-  s->robot_ = robot_;
+  s->workcell_ = workcell_;
   s->options_ = options_;
   s->mjcf_ = mjcf_;
-  s->ids_ = ids_;
+  s->arms_ = arms_;
   s->pool_per_color_ = pool_per_color_;
+  s->cube_body_ = cube_body_;
+  s->cube_qpos_ = cube_qpos_;
+  s->cube_dof_ = cube_dof_;
+  s->cube_geom_ = cube_geom_;
   s->active_ = active_;
   s->geom_contype_ = geom_contype_;
   s->geom_conaffinity_ = geom_conaffinity_;
   s->pattern_geom_ = pattern_geom_;
   s->pattern_pos_ = pattern_pos_;
   s->pattern_shown_ = pattern_shown_;
-  s->mode_ = mode_;
-  s->target_ = target_;
-  s->traj_ = traj_;
-  s->gripper_closed_ = gripper_closed_;
-  s->held_ = held_;
-  s->path_ = path_;
-  s->next_path_s_ = next_path_s_;
   s->warnings_ = warnings_;
+  s->limit_warnings_ = limit_warnings_;
   s->warnings_total_ = warnings_total_;
-  s->outside_ = outside_;
   return s;
 }
 
@@ -250,57 +285,62 @@ Status Simulation::forward() {
   return detail::mj_guarded(static_cast<int>(SimError::kMujoco), "mj_forward", fwd);
 }
 
-void Simulation::set_mode(Mode mode) {
-  if (mode == mode_) return;
-  traj_.reset();
-  target_ = joints();
-  mode_ = mode;
-  if (mode_ == Mode::kMirror) {
-    for (int j = 0; j < kNumJoints; ++j) d_->qfrc_applied[ids_.dof[j]] = 0.0;
+void Simulation::set_mode(Mode mode, int robot) {
+  Arm& a = arm(robot);
+  if (mode == a.mode) return;
+  a.traj.reset();
+  a.target = joints(robot);
+  a.mode = mode;
+  if (a.mode == Mode::kMirror) {
+    for (int j = 0; j < kNumJoints; ++j) d_->qfrc_applied[a.dof[j]] = 0.0;
   }
   // a held cube: welded in simulate mode, carried kinematically in mirror mode
-  if (held_ >= 0) m_->eq_active[ids_.cube_weld[held_]] = mode_ == Mode::kSimulate ? 1 : 0;
+  if (a.held >= 0) m_->eq_active[a.cube_weld[a.held]] = a.mode == Mode::kSimulate ? 1 : 0;
 }
 
-JointWarning Simulation::push_warning(int joint, double value) {
-  const JointWarning w{d_->time, joint, value, robot_.limits[joint]};
+JointWarning Simulation::push_warning(int robot, int joint, double value) {
+  const JointWarning w{d_->time, joint, value, arm(robot).robot.limits[joint], robot};
   warnings_.push_back(w);
   ++warnings_total_;
   while (warnings_.size() > options_.warnings_kept) warnings_.pop_front();
   return w;
 }
 
-std::vector<JointWarning> Simulation::note_limits(const JointVector& q) {
+std::vector<JointWarning> Simulation::note_limits(int robot, const JointVector& q) {
   std::vector<JointWarning> out;
   if (!limit_warnings_) return out;
+  Arm& a = arm(robot);
   for (int j = 0; j < kNumJoints; ++j) {
-    const bool outside = !robot_.limits[j].contains(q[j]);
-    if (outside && !outside_[j]) out.push_back(push_warning(j, q[j]));
-    outside_[j] = outside;
+    const bool outside = !a.robot.limits[j].contains(q[j]);
+    if (outside && !a.outside[j]) out.push_back(push_warning(robot, j, q[j]));
+    a.outside[j] = outside;
   }
   return out;
 }
 
-Result<std::vector<JointWarning>> Simulation::set_joints(const JointVector& q) {
-  if (const int j = implausible_joint(robot_, q); j >= 0) return implausible(robot_, q, j);
-  if (mode_ != Mode::kMirror) {
+Result<std::vector<JointWarning>> Simulation::set_joints(const JointVector& q, int robot) {
+  if (Status st = check_robot(robot); !st) return st.error();
+  Arm& a = arm(robot);
+  if (const int j = implausible_joint(a.robot, q); j >= 0) return implausible(a.robot, q, j);
+  if (a.mode != Mode::kMirror) {
     return sim_error(SimError::kWrongMode,
                      "joint data are applied in mirror mode; the simulator is in simulate mode");
   }
-  auto warnings = note_limits(q);
-  target_ = q;
-  apply_mirror_pose();
+  auto warnings = note_limits(robot, q);
+  a.target = q;
+  apply_mirror_pose(a);
   // poses only (the next step computes the dynamics); a joint frame costs microseconds
   struct Kin {
     Simulation* s;
+    Arm* a;
     void operator()() {
       mj_kinematics(s->m_, s->d_);
-      if (s->held_ >= 0) {
-        s->carry_held_cube();
+      if (a->held >= 0) {
+        s->carry_held_cube(*a);
         mj_kinematics(s->m_, s->d_);
       }
     }
-  } kin{this};
+  } kin{this, &a};
   if (Status st = detail::mj_guarded(static_cast<int>(SimError::kMujoco), "mj_kinematics", kin);
       !st) {
     return st.error();
@@ -308,8 +348,10 @@ Result<std::vector<JointWarning>> Simulation::set_joints(const JointVector& q) {
   return warnings;
 }
 
-Result<std::vector<JointWarning>> Simulation::follow(const JointTrajectory& t) {
-  if (mode_ != Mode::kSimulate) {
+Result<std::vector<JointWarning>> Simulation::follow(const JointTrajectory& t, int robot) {
+  if (Status st = check_robot(robot); !st) return st.error();
+  Arm& arm_ = arm(robot);
+  if (arm_.mode != Mode::kSimulate) {
     return sim_error(SimError::kWrongMode,
                      "trajectories are followed in simulate mode; the simulator is in mirror mode");
   }
@@ -338,9 +380,9 @@ Result<std::vector<JointWarning>> Simulation::follow(const JointTrajectory& t) {
   std::array<bool, kNumJoints> seen{};
   for (const JointSample& s : t.samples) {
     for (int j = 0; j < kNumJoints; ++j) {
-      if (seen[j] || robot_.limits[j].contains(s.q[j])) continue;
+      if (seen[j] || arm_.robot.limits[j].contains(s.q[j])) continue;
       seen[j] = true;
-      warnings.push_back(push_warning(j, s.q[j]));
+      warnings.push_back(push_warning(robot, j, s.q[j]));
     }
   }
   ActiveTrajectory a;
@@ -348,33 +390,40 @@ Result<std::vector<JointWarning>> Simulation::follow(const JointTrajectory& t) {
   std::stable_sort(a.trajectory.events.begin(), a.trajectory.events.end(),
                    [](const GripperEvent& x, const GripperEvent& y) { return x.t_s < y.t_s; });
   a.start_s = d_->time;
-  traj_ = std::move(a);
+  arm_.traj = std::move(a);
   return warnings;
 }
 
-Result<std::vector<JointWarning>> Simulation::hold(const JointVector& q) {
-  if (const int j = implausible_joint(robot_, q); j >= 0) return implausible(robot_, q, j);
-  if (mode_ != Mode::kSimulate) {
+Result<std::vector<JointWarning>> Simulation::hold(const JointVector& q, int robot) {
+  if (Status st = check_robot(robot); !st) return st.error();
+  Arm& a = arm(robot);
+  if (const int j = implausible_joint(a.robot, q); j >= 0) return implausible(a.robot, q, j);
+  if (a.mode != Mode::kSimulate) {
     return sim_error(SimError::kWrongMode, "hold is a simulate-mode command");
   }
-  auto warnings = note_limits(q);
-  traj_.reset();
-  target_ = q;
+  auto warnings = note_limits(robot, q);
+  a.traj.reset();
+  a.target = q;
   return warnings;
 }
 
-Result<std::vector<JointWarning>> Simulation::stream_target(double t_s, const JointVector& q) {
+Result<std::vector<JointWarning>> Simulation::stream_target(double t_s, const JointVector& q,
+                                                            int robot) {
+  if (Status st = check_robot(robot); !st) return st.error();
+  Arm& arm_ = arm(robot);
   if (!std::isfinite(t_s) || !finite(q)) {
     return sim_error(SimError::kBadArgument, "stream target time and joints must be finite");
   }
-  if (const int j = implausible_joint(robot_, q); j >= 0) return implausible(robot_, q, j);
-  if (mode_ != Mode::kSimulate) {
+  if (const int j = implausible_joint(arm_.robot, q); j >= 0) {
+    return implausible(arm_.robot, q, j);
+  }
+  if (arm_.mode != Mode::kSimulate) {
     return sim_error(SimError::kWrongMode, "joint targets are followed in simulate mode");
   }
-  if (stream_open()) {
-    JointTrajectory& t = traj_->trajectory;
+  if (stream_open(robot)) {
+    JointTrajectory& t = arm_.traj->trajectory;
     const JointSample& last = t.samples.back();
-    const double t_rel = t_s - traj_->sender_t0_s;
+    const double t_rel = t_s - arm_.traj->sender_t0_s;
     if (!(t_rel > last.t_s + 1e-9)) {
       return sim_error(SimError::kBadArgument,
                        fmt::format("stream target at {} s does not come after the previous one "
@@ -383,128 +432,135 @@ Result<std::vector<JointWarning>> Simulation::stream_target(double t_s, const Jo
     }
     JointSample next{t_rel, q, {}, {}};
     for (int j = 0; j < kNumJoints; ++j) next.qd[j] = (q[j] - last.q[j]) / (t_rel - last.t_s);
-    auto warnings = note_limits(q);
+    auto warnings = note_limits(robot, q);
     t.samples.push_back(next);
     return warnings;
   }
-  auto warnings = note_limits(q);
+  auto warnings = note_limits(robot, q);
   ActiveTrajectory a;
   a.stream = true;
   a.sender_t0_s = t_s;
   a.start_s = d_->time;
   a.trajectory.samples.push_back(JointSample{0.0, q, {}, {}});
-  traj_ = std::move(a);
+  arm_.traj = std::move(a);
   return warnings;
 }
 
-double Simulation::stream_horizon_s() const {
-  if (!stream_open()) return -INFINITY;
-  return traj_->start_s + traj_->trajectory.samples.back().t_s;
+double Simulation::stream_horizon_s(int robot) const {
+  if (!stream_open(robot)) return -INFINITY;
+  const Arm& a = arm(robot);
+  return a.traj->start_s + a.traj->trajectory.samples.back().t_s;
 }
 
-void Simulation::end_stream() {
-  if (stream_open()) traj_->stream = false;  // finishes like any trajectory
+void Simulation::end_stream(int robot) {
+  if (stream_open(robot)) arm(robot).traj->stream = false;  // finishes like any trajectory
 }
 
-void Simulation::queue_gripper(GripperAction action) {
-  if (stream_open()) {
-    traj_->trajectory.events.push_back(GripperEvent{traj_->trajectory.samples.back().t_s, action});
+void Simulation::queue_gripper(GripperAction action, int robot) {
+  if (stream_open(robot)) {
+    JointTrajectory& t = arm(robot).traj->trajectory;
+    t.events.push_back(GripperEvent{t.samples.back().t_s, action});
     return;
   }
   if (action == GripperAction::kGrip) {
-    (void)grip();
+    (void)grip(robot);
   } else {
-    release();
+    release(robot);
   }
 }
 
-void Simulation::stop() {
-  traj_.reset();
-  if (mode_ == Mode::kSimulate) target_ = joints();
+void Simulation::stop(int robot) {
+  Arm& a = arm(robot);
+  a.traj.reset();
+  if (a.mode == Mode::kSimulate) a.target = joints(robot);
 }
 
-Status Simulation::reset_robot() {
-  traj_.reset();
-  target_ = robot_.home;
+Status Simulation::reset_robot(int robot) {
+  if (Status st = check_robot(robot); !st) return st;
+  Arm& a = arm(robot);
+  a.traj.reset();
+  a.target = a.robot.home;
   for (int j = 0; j < kNumJoints; ++j) {
-    d_->qpos[ids_.qpos[j]] = target_[j];
-    d_->qvel[ids_.dof[j]] = 0.0;
-    d_->ctrl[ids_.actuator[j]] = target_[j];
+    d_->qpos[a.qpos[j]] = a.target[j];
+    d_->qvel[a.dof[j]] = 0.0;
+    d_->ctrl[a.actuator[j]] = a.target[j];
   }
-  if (held_ >= 0) {
+  if (a.held >= 0) {
     mj_kinematics(m_, d_);
-    carry_held_cube();
+    carry_held_cube(a);
   }
   return forward();
 }
 
-void Simulation::apply_mirror_pose() {
-  const GripperGeometry g = gripper_geometry(robot_);
+void Simulation::apply_mirror_pose(Arm& a) {
+  const GripperGeometry g = gripper_geometry(a.robot);
   for (int j = 0; j < kNumJoints; ++j) {
-    d_->qpos[ids_.qpos[j]] = target_[j];
-    d_->qvel[ids_.dof[j]] = 0.0;
+    d_->qpos[a.qpos[j]] = a.target[j];
+    d_->qvel[a.dof[j]] = 0.0;
   }
   for (int f = 0; f < 2; ++f) {
-    d_->qpos[ids_.finger_qpos[f]] = gripper_closed_ ? 0.0 : g.open_travel_m;
-    d_->qvel[ids_.finger_dof[f]] = 0.0;
+    d_->qpos[a.finger_qpos[f]] = a.gripper_closed ? 0.0 : g.open_travel_m;
+    d_->qvel[a.finger_dof[f]] = 0.0;
   }
 }
 
-void Simulation::apply_simulate_controls() {
-  if (driven_) {
+void Simulation::apply_simulate_controls(Arm& a) {
+  if (a.driven) {
     for (int j = 0; j < 3; ++j) {
-      d_->ctrl[ids_.actuator[j]] = 0.0;
-      d_->qfrc_applied[ids_.dof[j]] = drive_force_[j];
+      d_->ctrl[a.actuator[j]] = 0.0;
+      d_->qfrc_applied[a.dof[j]] = a.drive_force[j];
     }
-    d_->ctrl[ids_.actuator[3]] = drive_wrist_rad_;
-    d_->qfrc_applied[ids_.dof[3]] = d_->qfrc_bias[ids_.dof[3]];
-    const GripperGeometry g = gripper_geometry(robot_);
+    d_->ctrl[a.actuator[3]] = a.drive_wrist_rad;
+    d_->qfrc_applied[a.dof[3]] = d_->qfrc_bias[a.dof[3]];
+    const GripperGeometry g = gripper_geometry(a.robot);
     for (int f = 0; f < 2; ++f) {
-      d_->ctrl[ids_.actuator[kNumJoints + f]] = gripper_closed_ ? 0.0 : g.open_travel_m;
+      d_->ctrl[a.actuator[kNumJoints + f]] = a.gripper_closed ? 0.0 : g.open_travel_m;
     }
     return;
   }
-  JointVector q = target_, qd{};
-  if (traj_) {
+  JointVector q = a.target, qd{};
+  if (a.traj) {
     std::size_t hint = 0;
-    sample(traj_->trajectory, d_->time - traj_->start_s, hint, q, qd);
+    sample(a.traj->trajectory, d_->time - a.traj->start_s, hint, q, qd);
   }
   for (int j = 0; j < kNumJoints; ++j) {
-    d_->ctrl[ids_.actuator[j]] = q[j];
+    d_->ctrl[a.actuator[j]] = q[j];
     // feed forward gravity, Coriolis and the joint damping at the reference velocity
-    const int dof = ids_.dof[j];
+    const int dof = a.dof[j];
     d_->qfrc_applied[dof] = d_->qfrc_bias[dof] + m_->dof_damping[dof] * qd[j];
   }
-  const GripperGeometry g = gripper_geometry(robot_);
+  const GripperGeometry g = gripper_geometry(a.robot);
   for (int f = 0; f < 2; ++f) {
-    d_->ctrl[ids_.actuator[kNumJoints + f]] = gripper_closed_ ? 0.0 : g.open_travel_m;
+    d_->ctrl[a.actuator[kNumJoints + f]] = a.gripper_closed ? 0.0 : g.open_travel_m;
   }
 }
 
-void Simulation::run_due_gripper_events() {
-  if (!traj_) return;
-  const double t_rel = d_->time - traj_->start_s;
-  auto& events = traj_->trajectory.events;
-  while (traj_->next_event < events.size() && events[traj_->next_event].t_s <= t_rel + 1e-12) {
-    if (events[traj_->next_event].action == GripperAction::kGrip) {
-      grip();
+void Simulation::run_due_gripper_events(int robot) {
+  Arm& a = arm(robot);
+  if (!a.traj) return;
+  const double t_rel = d_->time - a.traj->start_s;
+  auto& events = a.traj->trajectory.events;
+  while (a.traj->next_event < events.size() && events[a.traj->next_event].t_s <= t_rel + 1e-12) {
+    if (events[a.traj->next_event].action == GripperAction::kGrip) {
+      grip(robot);
     } else {
-      release();
+      release(robot);
     }
-    ++traj_->next_event;
+    ++a.traj->next_event;
   }
-  if (!traj_->stream && t_rel > traj_->trajectory.duration_s() &&
-      traj_->next_event >= events.size()) {
-    target_ = traj_->trajectory.samples.back().q;
-    traj_.reset();
+  if (!a.traj->stream && t_rel > a.traj->trajectory.duration_s() &&
+      a.traj->next_event >= events.size()) {
+    a.target = a.traj->trajectory.samples.back().q;
+    a.traj.reset();
   }
 }
 
-void Simulation::record_tool_path() {
-  if (d_->time + 1e-12 < next_path_s_) return;
-  path_.push_back(ToolPoint{d_->time, tool_site_pos()});
-  while (path_.size() > options_.tool_path_points) path_.pop_front();
-  next_path_s_ = d_->time + options_.tool_path_dt_s;
+void Simulation::record_tool_path(Arm& a) {
+  if (d_->time + 1e-12 < a.next_path_s) return;
+  const double* p = d_->site_xpos + 3 * a.tool_site;
+  a.path.push_back(ToolPoint{d_->time, {p[0], p[1], p[2]}});
+  while (a.path.size() > options_.tool_path_points) a.path.pop_front();
+  a.next_path_s = d_->time + options_.tool_path_dt_s;
 }
 
 Status Simulation::step(int n) {
@@ -517,26 +573,36 @@ Status Simulation::step(int n) {
     Simulation* s;
     int n;
     void operator()() {
+      auto& arms = s->arms_;
       for (int i = 0; i < n; ++i) {
-        if (s->mode_ == Mode::kMirror) {
-          s->apply_mirror_pose();
-        } else {
-          s->run_due_gripper_events();
-          s->apply_simulate_controls();
+        for (std::size_t r = 0; r < arms.size(); ++r) {
+          if (arms[r].mode == Mode::kMirror) {
+            s->apply_mirror_pose(arms[r]);
+          } else {
+            s->run_due_gripper_events(static_cast<int>(r));
+            s->apply_simulate_controls(arms[r]);
+          }
         }
         mj_step(s->m_, s->d_);
-        if (s->mode_ == Mode::kMirror) s->apply_mirror_pose();
+        for (Arm& a : arms) {
+          if (a.mode == Mode::kMirror) s->apply_mirror_pose(a);
+        }
         for (std::size_t k = 0; k < s->active_.size(); ++k) {
           if (!s->active_[k]) s->park(static_cast<int>(k));
         }
-        // poses for the carried cube, the tool path and the callers; mj_step recomputes
+        // poses for the carried cubes, the tool paths and the callers; mj_step recomputes
         // everything from qpos, so skipping this on other steps changes no result
         const bool last = i + 1 == n;
-        const bool carry = s->held_ >= 0 && s->mode_ == Mode::kMirror;
-        const bool path_due = s->d_->time + 1e-12 >= s->next_path_s_;
+        bool carry = false, path_due = false;
+        for (const Arm& a : arms) {
+          carry = carry || (a.held >= 0 && a.mode == Mode::kMirror);
+          path_due = path_due || s->d_->time + 1e-12 >= a.next_path_s;
+        }
         if (last || carry || path_due) mj_kinematics(s->m_, s->d_);
-        s->carry_held_cube();
-        s->record_tool_path();
+        for (Arm& a : arms) {
+          s->carry_held_cube(a);
+          s->record_tool_path(a);
+        }
       }
     }
   } steps{this, n};
@@ -562,33 +628,38 @@ Status Simulation::step_until(double t_s) {
 double Simulation::time_s() const { return d_->time; }
 double Simulation::timestep_s() const { return m_->opt.timestep; }
 
-JointVector Simulation::joints() const {
+JointVector Simulation::joints(int robot) const {
+  const Arm& a = arm(robot);
   JointVector q{};
-  for (int j = 0; j < kNumJoints; ++j) q[j] = d_->qpos[ids_.qpos[j]];
+  for (int j = 0; j < kNumJoints; ++j) q[j] = d_->qpos[a.qpos[j]];
   return q;
 }
 
-JointVector Simulation::joint_targets() const {
-  if (mode_ == Mode::kSimulate && traj_) {
+JointVector Simulation::joint_targets(int robot) const {
+  const Arm& a = arm(robot);
+  if (a.mode == Mode::kSimulate && a.traj) {
     JointVector q{}, qd{};
     std::size_t hint = 0;
-    sample(traj_->trajectory, d_->time - traj_->start_s, hint, q, qd);
+    sample(a.traj->trajectory, d_->time - a.traj->start_s, hint, q, qd);
     return q;
   }
-  return target_;
+  return a.target;
 }
 
-std::array<double, 3> Simulation::tool_site_pos() const {
-  const double* p = d_->site_xpos + 3 * ids_.tool_site;
+std::array<double, 3> Simulation::tool_site_pos(int robot) const {
+  const double* p = d_->site_xpos + 3 * arm(robot).tool_site;
   return {p[0], p[1], p[2]};
 }
 
-ToolPose Simulation::tool_pose() const {
-  const auto p = tool_site_pos();
-  const double* r = d_->site_xmat + 9 * ids_.tool_site;
+ToolPose Simulation::tool_pose(int robot) const {
+  const auto p = tool_site_pos(robot);
+  const double* r = d_->site_xmat + 9 * arm(robot).tool_site;
   return ToolPose{p[0], p[1], p[2], std::atan2(r[3], r[0])};
 }
 
-std::vector<ToolPoint> Simulation::tool_path() const { return {path_.begin(), path_.end()}; }
+std::vector<ToolPoint> Simulation::tool_path(int robot) const {
+  const Arm& a = arm(robot);
+  return {a.path.begin(), a.path.end()};
+}
 
 }  // namespace scaratwin::sim

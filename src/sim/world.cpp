@@ -21,16 +21,26 @@ double seconds_since(Clock::time_point t0) {
 
 Result<std::unique_ptr<World>> World::create(const RobotModel& robot, const SimOptions& sim_options,
                                              const WorldOptions& options) {
+  if (Status v = validate(robot); !v) {
+    return Error{static_cast<int>(SimError::kBadArgument), v.error().message};
+  }
+  return create(single_robot_workcell(robot), sim_options, options);
+}
+
+Result<std::unique_ptr<World>> World::create(const Workcell& workcell,
+                                             const SimOptions& sim_options,
+                                             const WorldOptions& options) {
   if (!(options.speed >= 0.0) || options.speed > 1e6) {
     return Error{static_cast<int>(SimError::kBadArgument),
                  fmt::format("speed {}: must be >= 0 (0 = as fast as possible)", options.speed)};
   }
   std::unique_ptr<World> w(new World());
-  w->robot_ = robot;
   w->options_ = options;
-  auto sim = Simulation::create(robot, sim_options);
+  auto sim = Simulation::create(workcell, sim_options);
   if (!sim) return sim.error();
   w->sim_ = std::move(*sim);
+  w->workcell_ = workcell;
+  w->robot_ = w->sim_->robot(0);
   if (options.camera) {
     auto cam = Camera::create(*w->sim_, options.render);
     if (!cam) return cam.error();
@@ -149,6 +159,11 @@ Snapshot World::snapshot() const {
   }
   out.real_time_factor = rtf_;
   out.paused = paused_;
+  for (int r = 0; r < s.robot_count(); ++r) {
+    out.robots.push_back(RobotSnapshot{s.robot_name(r), s.mode(r), s.joints(r), s.joint_targets(r),
+                                       s.tool_pose(r), s.gripper_closed(r), s.held_cube(r),
+                                       s.trajectory_active(r)});
+  }
   return out;
 }
 

@@ -229,6 +229,23 @@ std::string state_message(const RobotModel& robot, const sim::Snapshot& s, const
               {"rtf", round_to(s.real_time_factor, 1e-3)},
               {"paused", s.paused},
               {"clients", extras.clients}};
+  // a workcell of several robots: each one's state (robot 0's is also the fields above)
+  if (s.robots.size() > 1) {
+    json robots = json::array();
+    for (const sim::RobotSnapshot& r : s.robots) {
+      robots.push_back({{"name", r.name},
+                        {"mode", sim::mode_name(r.mode)},
+                        {"display", display_json(r.joints)},
+                        {"tool",
+                         {{"x", r5(r.tool.x_m)},
+                          {"y", r5(r.tool.y_m)},
+                          {"z", r5(r.tool.z_m)},
+                          {"yaw", r5(r.tool.yaw_rad)}}},
+                        {"gripper", {{"closed", r.gripper_closed}, {"held", r.held_cube}}},
+                        {"trajectory", r.trajectory_active}});
+    }
+    out["robots"] = robots;
+  }
   if (extras.with_path) {
     json path = json::array();
     for (const sim::ToolPoint& p : s.tool_path) {

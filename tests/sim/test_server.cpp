@@ -3,11 +3,13 @@
 #include <utility>
 
 #include <chrono>
+#include <filesystem>
 #include <thread>
 
 #include <gtest/gtest.h>
 
 #include "scaratwin/config/robot_config.hpp"
+#include "scaratwin/config/workcell_config.hpp"
 #include "scaratwin/sim/camera.hpp"
 #include "scaratwin/sim/server.hpp"
 #include "scaratwin/sim/world.hpp"
@@ -267,6 +269,55 @@ TEST_F(SimServerTest, APacketForARobotTheSimulatorDoesNotHaveIsRefused) {
   ASSERT_EQ(after.rfind("ST,", 0), 0u) << after;
   EXPECT_NE(after.find(",80,10,0,0,0,-1,mirror,"), std::string::npos) << "nothing applied\n"
                                                                       << after;
+}
+
+// A workcell of two robots (config/two_arms.toml): each robot-addressed packet goes to the
+// robot whose index it carries, and its reply carries that index (none for robot 0); robot 2
+// is ER,19,2, (it has two) and nothing of it is applied.
+TEST(SimServerWorkcell, EachPacketGoesToTheRobotItNames) {
+  auto cell = load_workcell_config(std::filesystem::path(SCARATWIN_CONFIG_FILE).parent_path() /
+                                   "two_arms.toml");
+  ASSERT_TRUE(cell.ok()) << cell.error().message;
+  WorldOptions wo;
+  wo.camera = false;
+  auto w = World::create(*cell, {}, wo);
+  ASSERT_TRUE(w.ok()) << w.error().message;
+  ServerOptions o;
+  o.port = 0;
+  auto s = SimServer::create(**w, o);
+  ASSERT_TRUE(s.ok()) << s.error().message;
+  SimServer& server = **s;
+
+  const std::string ja = server.handle_line("JD,4,0,80,10,0,0,1,");
+  EXPECT_EQ(ja.rfind("JA,4,", 0), 0u) << ja;
+  ASSERT_GE(ja.size(), 4u);
+  EXPECT_EQ(ja.substr(ja.size() - 4), ",1,\n") << ja;
+  // robot 1 where it was told; robot 0 still at home (d1 120 mm)
+  std::string st1 = server.handle_line("QS,1,");
+  EXPECT_NE(st1.find(",80,10,0,0,0,-1,mirror,1,\n"), std::string::npos) << st1;
+  std::string st0 = server.handle_line("QS,");
+  EXPECT_NE(st0.find(",120,0,0,0,0,-1,mirror,\n"), std::string::npos) << st0;
+  const Snapshot snap = (*w)->snapshot();
+  ASSERT_EQ(snap.robots.size(), 2u);
+  EXPECT_EQ(snap.robots[1].name, "right");
+  EXPECT_NEAR(snap.robots[1].joints[0], 0.080, 1e-12);
+  EXPECT_NEAR(snap.robots[0].joints[0], 0.120, 1e-12);
+
+  // modes are each robot's: robot 1 simulates, robot 0 still takes joint data
+  EXPECT_EQ(server.handle_line("MD,simulate,1,"), "AK,MD,\n");
+  EXPECT_EQ(server.handle_line("JD,5,0,90,20,0,0,1,"), "ER,9,\n");
+  EXPECT_EQ(server.handle_line("JD,6,0,90,20,0,0,").rfind("JA,6,", 0), 0u);
+  st1 = server.handle_line("QS,1,");
+  EXPECT_NE(st1.find(",simulate,1,\n"), std::string::npos) << st1;
+  EXPECT_EQ(server.handle_line("GR,1,1,"), "GR,1,-1,1,\n");
+  EXPECT_EQ(server.handle_line("GR,0,1,"), "GR,0,-1,1,\n");
+
+  // robot 2: no such robot, nothing applied
+  for (const char* line : {"JD,7,0,50,30,0,0,2,", "MD,simulate,2,", "QS,2,", "SP,2,"}) {
+    EXPECT_EQ(server.handle_line(line), "ER,19,2,\n") << line;
+  }
+  st0 = server.handle_line("QS,0,");
+  EXPECT_NE(st0.find(",90,20,0,0,0,-1,mirror,\n"), std::string::npos) << st0;
 }
 
 TEST_F(SimServerTest, SimulateModeFollowsTargetsAndGrasps) {

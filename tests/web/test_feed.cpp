@@ -3,10 +3,12 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <filesystem>
 #include <nlohmann/json.hpp>
 #include <numbers>
 
 #include "scaratwin/config/robot_config.hpp"
+#include "scaratwin/config/workcell_config.hpp"
 #include "scaratwin/sim/camera.hpp"
 #include "scaratwin/web/feed.hpp"
 #include "scaratwin/web/link_monitor.hpp"
@@ -77,6 +79,40 @@ TEST(Feed, StateMessageFollowsTheSimulation) {
   const ToolPose fk = forward(world->robot(), q);
   EXPECT_NEAR(j["tool"]["x"].get<double>(), fk.x_m, 1e-4);
   EXPECT_NEAR(j["tool"]["y"].get<double>(), fk.y_m, 1e-4);
+}
+
+// A workcell of two robots: the state message has each robot's name, mode, joints and tool (in
+// the world frame); a single robot's has no `robots` (the page's panels are robot 0's).
+TEST(Feed, AWorkcellsStateCarriesEachRobot) {
+  auto alone = make_world();
+  EXPECT_FALSE(
+      json::parse(state_message(alone->robot(), alone->snapshot(), {}, {})).contains("robots"));
+  auto cell = load_workcell_config(std::filesystem::path(SCARATWIN_CONFIG_FILE).parent_path() /
+                                   "two_arms.toml");
+  ASSERT_TRUE(cell.ok()) << cell.error().message;
+  sim::WorldOptions wo;
+  wo.camera = false;
+  auto world = sim::World::create(*cell, {}, wo);
+  ASSERT_TRUE(world.ok()) << world.error().message;
+  const JointVector q{0.08, 0.5, -0.7, 0.3};
+  ASSERT_TRUE(
+      (*world)->with_simulation([&](sim::Simulation& s) { return s.set_joints(q, 1); }).ok());
+  const json j = json::parse(state_message((*world)->robot(), (*world)->snapshot(), {}, {}));
+  ASSERT_TRUE(j.contains("robots"));
+  ASSERT_EQ(j["robots"].size(), 2u);
+  EXPECT_EQ(j["robots"][0]["name"], "left");
+  EXPECT_EQ(j["robots"][1]["name"], "right");
+  EXPECT_EQ(j["robots"][1]["mode"], "mirror");
+  EXPECT_NEAR(j["robots"][1]["display"][0].get<double>(), 80.0, 1e-3);
+  EXPECT_NEAR(j["robots"][0]["display"][0].get<double>(), 120.0, 1e-3);  // at home
+  // robot 1's tool: its forward kinematics in its base, put in the world by its base pose
+  const ToolPose fk = forward((*world)->workcell().robots[1].model, q);
+  const auto w = base_to_world(cell->robots[1].base, {fk.x_m, fk.y_m, fk.z_m});
+  EXPECT_NEAR(j["robots"][1]["tool"]["x"].get<double>(), w[0], 1e-4);
+  EXPECT_NEAR(j["robots"][1]["tool"]["y"].get<double>(), w[1], 1e-4);
+  EXPECT_NEAR(j["robots"][1]["tool"]["z"].get<double>(), w[2], 1e-4);
+  // the top-level fields are robot 0's
+  EXPECT_NEAR(j["display"][0].get<double>(), 120.0, 1e-3);
 }
 
 TEST(Feed, OutOfLimitJointIsFlagged) {

@@ -100,6 +100,7 @@ enum class SimError : int {
   kNoSuchCube = 44,     // an id that names no cube in the scene
   kRender = 45,         // the camera could not render or encode
   kWrongMode = 46,      // a mirror command in simulate mode or the reverse
+  kNoRobot = 47,        // a robot index the simulated workcell does not have
 };
 }  // namespace sim
 

@@ -39,6 +39,7 @@ struct JointFrame {
   std::uint32_t t_us = 0;       // the hub's sample time (its steady clock, mod 2^32)
   JointVector q{};              // the values received (m, rad)
   std::int64_t applied_us = 0;  // when applied (transport::steady_now_us(), the same clock)
+  int robot = 0;                // the robot's index in the workcell
 };
 
 struct ServerOptions {

@@ -14,8 +14,12 @@
 // kinematic robot would pump the robot's overwritten motion into the cube). A release lets
 // it fall.
 //
-// Units: SI (m, rad, s). Frames: positions are in the robot base B (the MJCF world frame);
-// quaternions are (w, x, y, z) of the body in B.
+// A workcell of several robots is simulated in one model (one scene, shared cubes): each robot
+// has its own mode, trajectory, gripper and joint-limit notes (the per-robot methods take its
+// index; without it they address robot 0, the paper's robot).
+//
+// Units: SI (m, rad, s). Frames: positions are in the world frame W, which is robot 0's base B
+// (the MJCF world frame); quaternions are (w, x, y, z) of the body in W.
 #pragma once
 
 #include <array>
@@ -29,6 +33,7 @@
 #include "scaratwin/core/result.hpp"
 #include "scaratwin/kinematics/kinematics.hpp"
 #include "scaratwin/kinematics/robot_model.hpp"
+#include "scaratwin/kinematics/workcell.hpp"
 #include "scaratwin/sim/mjcf.hpp"
 #include "scaratwin/trajectory/trajectory.hpp"
 
@@ -72,6 +77,7 @@ struct JointWarning {
   int joint = 0;        // 0..3 (j1..j4)
   double value = 0.0;   // m or rad
   JointLimit limit;
+  int robot = 0;  // the robot's index in the workcell
 };
 
 // Outcome of a grasp: grasping nothing is a normal outcome, not an error.
@@ -89,7 +95,15 @@ struct ToolPoint {
 class Simulation {
  public:
   // Generates the model from `robot`, compiles it and puts the robot at home with no cubes.
+  // The simulation of the workcell of that one robot (single_robot_workcell()).
   static Result<std::unique_ptr<Simulation>> create(const RobotModel& robot,
+                                                    const SimOptions& options = {});
+  // The simulation of a workcell (docs/workcell.md): its scene once, each robot at its base
+  // pose with its own mode, trajectory, gripper and joint-limit notes; the cubes are shared
+  // (one arm cannot take a cube another holds). Robot i of the workcell is index i of every
+  // per-robot method below; a method without the index addresses robot 0. Errors:
+  // validate(Workcell)'s, and those of create(RobotModel).
+  static Result<std::unique_ptr<Simulation>> create(const Workcell& workcell,
                                                     const SimOptions& options = {});
   // An independent copy with the same state (for prediction runs); bit-exact continuation.
   Result<std::unique_ptr<Simulation>> clone() const;
@@ -97,12 +111,22 @@ class Simulation {
   Simulation(const Simulation&) = delete;
   Simulation& operator=(const Simulation&) = delete;
 
+  // --- robots --------------------------------------------------------------------------------
+  int robot_count() const { return static_cast<int>(arms_.size()); }
+  // Robot `robot`'s name in the workcell ("robot" for the paper's single robot).
+  const std::string& robot_name(int robot = 0) const { return arm(robot).name; }
+  const BasePose& robot_base(int robot = 0) const { return arm(robot).base; }
+  // Ok when `robot` is one of the simulation's robots; SimError::kNoRobot, naming the robots
+  // there are, otherwise. The per-robot methods that return a Result check it; the others take
+  // it as a precondition (a bad index is a programming error).
+  Status check_robot(int robot) const;
+
   // --- scene -----------------------------------------------------------------------------
   // Places a cube of `color` resting on the table at (x, y) with heading yaw. Fails without
   // changing the scene when the position is not finite, off the table, overlapping another
   // cube, or when every cube of the colour is in use.
   Result<CubeState> spawn_cube(CubeColor color, double x_m, double y_m, double yaw_rad = 0.0);
-  // Removes every cube (and releases the gripper). The robot stays where it is.
+  // Removes every cube (and releases every gripper). The robots stay where they are.
   void reset_scene();
   // Every cube in the scene, ordered by id.
   std::vector<CubeState> cubes() const;
@@ -114,40 +138,43 @@ class Simulation {
   Status show_pattern(bool on);
   bool pattern_shown() const { return pattern_shown_; }
 
-  // --- motion ------------------------------------------------------------------------------
-  Mode mode() const { return mode_; }
+  // --- motion (each robot's own) -------------------------------------------------------------
+  Mode mode(int robot = 0) const { return arm(robot).mode; }
   // Switching to simulate holds the current joints; switching to mirror drops any trajectory.
-  void set_mode(Mode mode);
+  void set_mode(Mode mode, int robot = 0);
   // Mirror: applies q at once (and at every step until the next call). Values outside their
   // limits are applied and reported. Errors: implausible (implausible_joint(): nothing
-  // changes), simulate mode.
-  Result<std::vector<JointWarning>> set_joints(const JointVector& q);
+  // changes), simulate mode, no such robot.
+  Result<std::vector<JointWarning>> set_joints(const JointVector& q, int robot = 0);
   // Simulate: follows `trajectory` from now on (times relative to now), executing its gripper
   // events. Samples outside the limits are clamped by the servos and reported. Errors: empty,
-  // not finite, times not increasing from 0, mirror mode.
-  Result<std::vector<JointWarning>> follow(const JointTrajectory& trajectory);
+  // not finite, times not increasing from 0, mirror mode, no such robot.
+  Result<std::vector<JointWarning>> follow(const JointTrajectory& trajectory, int robot = 0);
   // Simulate: holds q (a one-point move with the servos).
-  Result<std::vector<JointWarning>> hold(const JointVector& q);
+  Result<std::vector<JointWarning>> hold(const JointVector& q, int robot = 0);
   // Simulate, prediction runs: appends one timed target to a stream. `t_s` is the target's
   // time on the sender's clock; the first target of a stream is played at once, the next ones
   // at their offsets from it (servo targets interpolated in between, velocity fed forward).
   // The stream stays open, holding its last target, until end_stream(), stop() or a mode
   // change; stream_horizon_s() tells how far it reaches, so that a caller stepping as fast as
   // it can stops there and waits for more (lockstep: the result does not depend on timing).
-  // Errors: not finite, mirror mode, a time not after the previous target's.
-  Result<std::vector<JointWarning>> stream_target(double t_s, const JointVector& q);
-  bool stream_open() const { return traj_.has_value() && traj_->stream; }
+  // Errors: not finite, mirror mode, a time not after the previous target's, no such robot.
+  Result<std::vector<JointWarning>> stream_target(double t_s, const JointVector& q, int robot = 0);
+  bool stream_open(int robot = 0) const {
+    const Arm& a = arm(robot);
+    return a.traj.has_value() && a.traj->stream;
+  }
   // Simulation time of the open stream's last target (or -infinity).
-  double stream_horizon_s() const;
-  void end_stream();
+  double stream_horizon_s(int robot = 0) const;
+  void end_stream(int robot = 0);
   // A grasp or release at the time of the open stream's last target; at once without one.
-  void queue_gripper(GripperAction action);
+  void queue_gripper(GripperAction action, int robot = 0);
 
   // Stops any trajectory and holds the current joints.
-  void stop();
+  void stop(int robot = 0);
   // Puts the robot at its home pose at once (joints, velocities, targets), in either mode.
-  Status reset_robot();
-  bool trajectory_active() const { return traj_.has_value(); }
+  Status reset_robot(int robot = 0);
+  bool trajectory_active(int robot = 0) const { return arm(robot).traj.has_value(); }
 
   // --- driven: the emulated physical robot ---------------------------------------------------
   // Simulate mode with the servos of j1..j3 switched off: their motion comes only from the
@@ -157,25 +184,26 @@ class Simulation {
   // a Coulomb friction (N, N m) for each; the fingers become solid (they push what they land
   // on). Trajectories are dropped; the gripper works as in simulate mode.
   void enable_drive(const std::array<double, 3>& damping, const std::array<double, 3>& armature,
-                    const std::array<double, 3>& frictionloss);
-  bool driven() const { return driven_; }
-  void set_drive(const std::array<double, 3>& force, double wrist_target_rad);
+                    const std::array<double, 3>& frictionloss, int robot = 0);
+  bool driven(int robot = 0) const { return arm(robot).driven; }
+  void set_drive(const std::array<double, 3>& force, double wrist_target_rad, int robot = 0);
   // A point mass held at the tool (a payload), kg; 0 takes it away.
-  void set_payload(double mass_kg);
-  double payload_kg() const { return payload_kg_; }
-  JointVector joint_velocities() const;
+  void set_payload(double mass_kg, int robot = 0);
+  double payload_kg(int robot = 0) const { return arm(robot).payload_kg; }
+  JointVector joint_velocities(int robot = 0) const;
   // The largest speed of any degree of freedom (m/s or rad/s): zero when all is at rest.
   double max_speed() const;
 
   // --- gripper ------------------------------------------------------------------------------
-  // Closes the fingers and holds the cube between them if there is one.
-  GraspResult grip();
+  // Closes the fingers and holds the cube between them if there is one (and no other robot
+  // holds it).
+  GraspResult grip(int robot = 0);
   // Opens the fingers and lets a held cube go.
-  void release();
-  bool gripper_closed() const { return gripper_closed_; }
-  int held_cube() const { return held_; }
+  void release(int robot = 0);
+  bool gripper_closed(int robot = 0) const { return arm(robot).gripper_closed; }
+  int held_cube(int robot = 0) const { return arm(robot).held; }
   // The cube whose centre is inside the detector volume between the fingers, or -1.
-  int cube_between_fingers() const;
+  int cube_between_fingers(int robot = 0) const;
 
   // --- time -----------------------------------------------------------------------------------
   // Advances n physics steps. A MuJoCo error restores the state before the call.
@@ -185,29 +213,32 @@ class Simulation {
   double time_s() const;
   double timestep_s() const;
 
-  // --- state -----------------------------------------------------------------------------------
-  JointVector joints() const;         // measured joint positions
-  JointVector joint_targets() const;  // what the robot is told to be at now
-  ToolPose tool_pose() const;         // of the `tool` site (yaw from its x axis)
-  std::array<double, 3> tool_site_pos() const;
-  std::vector<ToolPoint> tool_path() const;
+  // --- state (positions in the world frame W: robot 0's base frame) ---------------------------
+  JointVector joints(int robot = 0) const;         // measured joint positions
+  JointVector joint_targets(int robot = 0) const;  // what the robot is told to be at now
+  ToolPose tool_pose(int robot = 0) const;         // of the `tool` site (yaw from its x axis)
+  std::array<double, 3> tool_site_pos(int robot = 0) const;
+  std::vector<ToolPoint> tool_path(int robot = 0) const;
+  // Joint-limit warnings of every robot (JointWarning::robot), the latest warnings_kept.
   const std::deque<JointWarning>& recent_warnings() const { return warnings_; }
-  // Off while the robot homes (it passes its soft limits on the way to its endstops, by design):
-  // joints beyond their limits are then not warnings. On by default. A joint that stays beyond
-  // its limit frame after frame is one warning, the next one when it leaves its limits again
-  // (turning the warnings on starts afresh).
+  // Off while the robots home (a robot passes its soft limits on the way to its endstops, by
+  // design): joints beyond their limits are then not warnings. On by default. A joint that
+  // stays beyond its limit frame after frame is one warning, the next one when it leaves its
+  // limits again (turning the warnings on starts afresh).
   void set_limit_warnings(bool on) {
-    if (on && !limit_warnings_) outside_ = {};
+    if (on && !limit_warnings_) restart_outside();
     limit_warnings_ = on;
   }
   // On, afresh: every joint beyond its limits at its next note is a warning (a new hub).
   void restart_limit_warnings() {
     limit_warnings_ = true;
-    outside_ = {};
+    restart_outside();
   }
   bool limit_warnings() const { return limit_warnings_; }
   std::uint64_t warnings_total() const { return warnings_total_; }
-  const RobotModel& robot() const { return robot_; }
+  // Robot `robot`'s description (robot 0: the paper's robot; its scene is the workcell's).
+  const RobotModel& robot(int robot = 0) const { return arm(robot).robot; }
+  const Workcell& workcell() const { return workcell_; }
   const SimOptions& options() const { return options_; }
   const std::string& mjcf() const { return mjcf_; }
 
@@ -218,46 +249,6 @@ class Simulation {
   mjData_* mutable_data() { return d_; }
 
  private:
-  Simulation() = default;
-  Status init(const RobotModel& robot, const SimOptions& options);
-  void park(int cube_id);
-  void apply_mirror_pose();
-  void apply_simulate_controls();
-  void run_due_gripper_events();
-  void record_tool_path();
-  void set_fingers(bool closed);
-  void carry_held_cube();
-  std::vector<JointWarning> note_limits(const JointVector& q);
-  JointWarning push_warning(int joint, double value);
-  bool cube_active(int id) const { return active_[id]; }
-  Status forward();
-
-  struct Ids {
-    std::array<int, kNumJoints> qpos{};  // qpos address of j1..j4
-    std::array<int, kNumJoints> dof{};
-    std::array<int, 2> finger_qpos{};
-    std::array<int, 2> finger_dof{};
-    std::array<int, kNumJoints + 2> actuator{};
-    int tool_site = -1;
-    int gripper_body = -1;
-    std::vector<int> cube_body, cube_qpos, cube_dof, cube_geom, cube_weld;
-  };
-
-  RobotModel robot_;
-  SimOptions options_;
-  std::string mjcf_;
-  mjModel_* m_ = nullptr;
-  mjData_* d_ = nullptr;
-  Ids ids_;
-  int pool_per_color_ = 0;
-  std::vector<char> active_;  // per cube id
-  std::vector<int> geom_contype_, geom_conaffinity_;
-  int pattern_geom_ = -1;                // -1: no pattern in the model
-  std::array<double, 3> pattern_pos_{};  // where it lies when shown
-  bool pattern_shown_ = false;
-
-  Mode mode_ = Mode::kMirror;
-  JointVector target_{};  // mirror pose or simulate hold point
   struct ActiveTrajectory {
     JointTrajectory trajectory;
     double start_s = 0.0;
@@ -265,24 +256,76 @@ class Simulation {
     bool stream = false;       // built by stream_target(), open until ended
     double sender_t0_s = 0.0;  // sender's time of the stream's first target
   };
-  std::optional<ActiveTrajectory> traj_;
-  bool gripper_closed_ = false;
-  bool driven_ = false;
-  std::array<double, 3> drive_force_{};
-  double drive_wrist_rad_ = 0.0;
   struct PayloadBase {
     double mass = 0.0;
     std::array<double, 3> ipos{}, inertia{};
   };
-  std::optional<PayloadBase> payload_base_;
-  double payload_kg_ = 0.0;
-  int held_ = -1;
+  // One robot of the workcell: its elements in the model and its own state.
+  struct Arm {
+    std::string name;
+    BasePose base;
+    RobotModel robot;                    // its scene: the workcell's
+    std::array<int, kNumJoints> qpos{};  // qpos address of j1..j4
+    std::array<int, kNumJoints> dof{};
+    std::array<int, 2> finger_qpos{};
+    std::array<int, 2> finger_dof{};
+    std::array<int, kNumJoints + 2> actuator{};
+    int tool_site = -1;
+    int gripper_body = -1;
+    std::vector<int> cube_weld;  // per cube id: this gripper's weld to it
 
-  std::deque<ToolPoint> path_;
-  double next_path_s_ = 0.0;
+    Mode mode = Mode::kMirror;
+    JointVector target{};  // mirror pose or simulate hold point
+    std::optional<ActiveTrajectory> traj;
+    bool gripper_closed = false;
+    bool driven = false;
+    std::array<double, 3> drive_force{};
+    double drive_wrist_rad = 0.0;
+    std::optional<PayloadBase> payload_base;
+    double payload_kg = 0.0;
+    int held = -1;
+    std::deque<ToolPoint> path;
+    double next_path_s = 0.0;
+    std::array<bool, kNumJoints> outside{};  // each joint beyond its limits at its last note
+  };
+
+  Simulation() = default;
+  Status init(const Workcell& workcell, const SimOptions& options);
+  const Arm& arm(int robot) const;
+  Arm& arm(int robot);
+  void park(int cube_id);
+  void apply_mirror_pose(Arm& a);
+  void apply_simulate_controls(Arm& a);
+  void run_due_gripper_events(int robot);
+  void record_tool_path(Arm& a);
+  void set_fingers(Arm& a, bool closed);
+  void carry_held_cube(Arm& a);
+  void restart_outside() {
+    for (Arm& a : arms_) a.outside = {};
+  }
+  std::vector<JointWarning> note_limits(int robot, const JointVector& q);
+  JointWarning push_warning(int robot, int joint, double value);
+  int holder_of(int cube_id) const;  // the robot holding the cube, or -1
+  bool cube_active(int id) const { return active_[id]; }
+  Status forward();
+
+  Workcell workcell_;
+  SimOptions options_;
+  std::string mjcf_;
+  mjModel_* m_ = nullptr;
+  mjData_* d_ = nullptr;
+  std::vector<Arm> arms_;
+  // the cube pool, per cube id
+  int pool_per_color_ = 0;
+  std::vector<int> cube_body_, cube_qpos_, cube_dof_, cube_geom_;
+  std::vector<char> active_;
+  std::vector<int> geom_contype_, geom_conaffinity_;
+  int pattern_geom_ = -1;                // -1: no pattern in the model
+  std::array<double, 3> pattern_pos_{};  // where it lies when shown
+  bool pattern_shown_ = false;
+
   std::deque<JointWarning> warnings_;
   bool limit_warnings_ = true;
-  std::array<bool, kNumJoints> outside_{};  // each joint beyond its limits at its last note
   std::uint64_t warnings_total_ = 0;
 };
 

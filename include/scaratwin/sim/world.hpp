@@ -39,6 +39,20 @@ struct BodyPose {
   std::array<double, 4> quat_wxyz{1, 0, 0, 0};
 };
 
+// One robot of the workcell as a viewer needs it.
+struct RobotSnapshot {
+  std::string name;
+  Mode mode = Mode::kMirror;
+  JointVector joints{};   // measured
+  JointVector targets{};  // commanded now
+  ToolPose tool;          // in the world frame
+  bool gripper_closed = false;
+  int held_cube = -1;
+  bool trajectory_active = false;
+};
+
+// The fields without a robot are robot 0's (the paper's robot); `robots` has every robot of
+// the workcell, robot 0 first.
 struct Snapshot {
   std::uint64_t steps = 0;  // physics steps taken so far
   double time_s = 0.0;      // simulation time
@@ -56,6 +70,7 @@ struct Snapshot {
   std::vector<BodyPose> bodies;   // indexed like SceneGeometry::bodies
   double real_time_factor = 0.0;  // measured over the last second of stepping
   bool paused = false;
+  std::vector<RobotSnapshot> robots;
 };
 
 // Static shapes of the scene for a 3D view. Geom poses are relative to their body.
@@ -79,6 +94,11 @@ class World {
   static Result<std::unique_ptr<World>> create(const RobotModel& robot,
                                                const SimOptions& sim_options = {},
                                                const WorldOptions& options = {});
+  // A workcell of one or more robots (Simulation::create(Workcell)). With speed 0, robot 0's
+  // trajectories and streams set the pace.
+  static Result<std::unique_ptr<World>> create(const Workcell& workcell,
+                                               const SimOptions& sim_options = {},
+                                               const WorldOptions& options = {});
   ~World();  // stops the stepping thread
   World(const World&) = delete;
   World& operator=(const World&) = delete;
@@ -91,7 +111,10 @@ class World {
 
   Snapshot snapshot() const;
   SceneGeometry geometry() const;
+  // Robot 0's description (its scene: the workcell's), and the whole workcell.
   const RobotModel& robot() const { return robot_; }
+  const Workcell& workcell() const { return workcell_; }
+  int robot_count() const { return static_cast<int>(workcell_.robots.size()); }
   const WorldOptions& options() const { return options_; }
 
   // Runs f(Simulation&) with the simulation locked; returns what f returns.
@@ -114,6 +137,7 @@ class World {
   void run();
 
   RobotModel robot_;
+  Workcell workcell_;
   WorldOptions options_;
   mutable std::mutex mutex_;  // guards sim_ and the counters below
   std::unique_ptr<Simulation> sim_;
