@@ -40,6 +40,11 @@ json vec(const std::array<double, N>& a) {
 double display_value(int joint, double v) { return joint == 0 ? v * 1e3 : v * kRadToDeg; }
 const char* display_unit(int joint) { return joint == 0 ? "mm" : "deg"; }
 
+// A tool pose, m and rad.
+json tool_json(const ToolPose& t) {
+  return {{"x", r5(t.x_m)}, {"y", r5(t.y_m)}, {"z", r5(t.z_m)}, {"yaw", r5(t.yaw_rad)}};
+}
+
 json joints_json(const JointVector& q) {
   json out = json::array();
   for (int i = 0; i < kNumJoints; ++i) out.push_back(r5(q[i]));
@@ -214,11 +219,7 @@ std::string state_message(const RobotModel& robot, const sim::Snapshot& s, const
               {"display", display_json(s.joints)},
               {"targets_display", display_json(s.targets)},
               {"out_of_limit", out_of_limit},
-              {"tool",
-               {{"x", r5(s.tool.x_m)},
-                {"y", r5(s.tool.y_m)},
-                {"z", r5(s.tool.z_m)},
-                {"yaw", r5(s.tool.yaw_rad)}}},
+              {"tool", tool_json(s.tool)},
               {"gripper", {{"closed", s.gripper_closed}, {"held", s.held_cube}}},
               {"trajectory", s.trajectory_active},
               {"bodies", bodies},
@@ -236,11 +237,7 @@ std::string state_message(const RobotModel& robot, const sim::Snapshot& s, const
       robots.push_back({{"name", r.name},
                         {"mode", sim::mode_name(r.mode)},
                         {"display", display_json(r.joints)},
-                        {"tool",
-                         {{"x", r5(r.tool.x_m)},
-                          {"y", r5(r.tool.y_m)},
-                          {"z", r5(r.tool.z_m)},
-                          {"yaw", r5(r.tool.yaw_rad)}}},
+                        {"tool", tool_json(r.tool)},
                         {"gripper", {{"closed", r.gripper_closed}, {"held", r.held_cube}}},
                         {"trajectory", r.trajectory_active}});
     }
