@@ -89,6 +89,7 @@ try {
   const bodies = await page.evaluate(() => window.scaratwin.scene.bodies.length);
   check('scene geometry received', bodies > 5, `${bodies} bodies`);
   check('no cubes at start', await page.locator('#cube-list tr').count() === 0);
+  check('one robot: no workcell table', await page.locator('#robots-card').isHidden());
 
   // clicking red makes a red cube appear in the scene and in the cube list
   await page.click('#spawn-red');

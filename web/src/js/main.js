@@ -86,6 +86,24 @@ function updateLink(state) {
   $('tool-readout').textContent = `tool  x ${(tool.x * 1e3).toFixed(1)}  y ${(tool.y * 1e3).toFixed(1)}  z ${(tool.z * 1e3).toFixed(1)} mm  yaw ${(tool.yaw * 180 / Math.PI).toFixed(1)}°`;
 }
 
+// --- a workcell of several robots: each one's mode, joints and gripper ------------------------
+function updateRobots(state) {
+  const robots = state.robots || [];
+  $('robots-card').hidden = robots.length === 0;
+  if (robots.length === 0) return;
+  const rows = robots.map((r) => {
+    const j = r.display.map((v) => v.toFixed(1)).map((v) => `<td>${v}</td>`).join('');
+    const grip = r.gripper.closed ? (r.gripper.held >= 0 ? `#${r.gripper.held}` : 'closed') : 'open';
+    return `<tr data-robot="${r.name}"><td>${r.name}</td><td>${r.mode}</td>${j}<td>${grip}</td></tr>`;
+  }).join('');
+  const tbody = $('robot-list');
+  if (tbody.dataset.html !== rows) {
+    tbody.innerHTML = rows;
+    tbody.dataset.html = rows;
+  }
+  $('robot-count').textContent = robots.length;
+}
+
 // --- data area 2: cubes -----------------------------------------------------------------------
 function updateCubes(state) {
   const tbody = $('cube-list');
@@ -150,6 +168,7 @@ const feed = new Feed(wsUrl, {
       updateJoints(msg);
       updateLink(msg);
       updateCubes(msg);
+      updateRobots(msg);
       record(msg);
     } else if (msg.type === 'reply' && !msg.ok && msg.id === undefined) {
       toast(msg.error);
