@@ -133,27 +133,27 @@ enum class WebError : int {
 
 // The hub (hub/hub.hpp and the pieces beside it).
 enum class HubError : int {
-  kFailed = 80,        // an operation of the hub failed (the message says which and why)
-  kTask = 81,          // a task (sorting, pick and place) could not go on
-  kStartFailed = 82,   // a helper program could not be started
-  kNotReady = 83,      // a helper program did not say it was ready in time
-  kExited = 84,        // a helper program exited before it was ready
-  kCamera = 85,        // the tool tracker's camera link failed
-  kBadOption = 86,     // a tool tracker option that cannot work
-  kTracker = 87,       // the tool tracker could not learn the tool
-  kInterrupted = 88,   // a stop or Ctrl-C ended the hub's serving loop
+  kFailed = 80,       // an operation of the hub failed (the message says which and why)
+  kTask = 81,         // a task (sorting, pick and place) could not go on
+  kStartFailed = 82,  // a helper program could not be started
+  kNotReady = 83,     // a helper program did not say it was ready in time
+  kExited = 84,       // a helper program exited before it was ready
+  kCamera = 85,       // the tool tracker's camera link failed
+  kBadOption = 86,    // a tool tracker option that cannot work
+  kTracker = 87,      // the tool tracker could not learn the tool
+  kInterrupted = 88,  // a stop or Ctrl-C ended the hub's serving loop
 };
 
 // The executables' own steps (apps/scaratwin).
 enum class AppError : int {
-  kDemoNoCube = 90,        // the demo's spawned cube is not in the scene
-  kDemoRecognition = 91,   // the demo's colour recognition found the wrong number of cubes
-  kDemoPrediction = 92,    // the demo's prediction did not sort every cube
-  kRigStart = 93,          // the simulator or the emulator of a rig could not be started
-  kBadOption = 94,         // a command-line option that cannot work (names it)
-  kBench = 95,             // a benchmark step failed
-  kWriteFailed = 96,       // a figure or a file could not be written
-  kEmulatorChannel = 97,   // the emulator's side channel refused or did not answer
+  kDemoNoCube = 90,       // the demo's spawned cube is not in the scene
+  kDemoRecognition = 91,  // the demo's colour recognition found the wrong number of cubes
+  kDemoPrediction = 92,   // the demo's prediction did not sort every cube
+  kRigStart = 93,         // the simulator or the emulator of a rig could not be started
+  kBadOption = 94,        // a command-line option that cannot work (names it)
+  kBench = 95,            // a benchmark step failed
+  kWriteFailed = 96,      // a figure or a file could not be written
+  kEmulatorChannel = 97,  // the emulator's side channel refused or did not answer
 };
 
 namespace transport {
@@ -253,10 +253,9 @@ static_assert(detail::fits("PlanError", PlanError::kBadArgument, PlanError::kDis
 static_assert(detail::fits("ConfigError", ConfigError::kInvalid, ConfigError::kUnknownRobot));
 static_assert(detail::fits("CalibrationError", CalibrationError::kNotEnoughData,
                            CalibrationError::kWriteFailed));
-static_assert(detail::fits("sim::SimError", sim::SimError::kMujoco, sim::SimError::kWrongMode));
+static_assert(detail::fits("sim::SimError", sim::SimError::kMujoco, sim::SimError::kNoRobot));
 static_assert(detail::fits("ScriptError", ScriptError::kLine, ScriptError::kUnknownStatement));
-static_assert(detail::fits("VisionError", VisionError::kBadImage,
-                           VisionError::kResidualTooLarge));
+static_assert(detail::fits("VisionError", VisionError::kBadImage, VisionError::kResidualTooLarge));
 static_assert(detail::fits("web::WebError", web::WebError::kBadCommand, web::WebError::kBadOption));
 static_assert(detail::fits("HubError", HubError::kFailed, HubError::kInterrupted));
 static_assert(detail::fits("AppError", AppError::kDemoNoCube, AppError::kEmulatorChannel));
