@@ -167,11 +167,10 @@ int Simulation::cube_between_fingers(int robot) const {
   int best = -1;
   double best_d = INFINITY;
   for (std::size_t k = 0; k < active_.size(); ++k) {
+    if (!active_[k]) continue;
     // a cube another robot holds is not this one's to take
-    if (!active_[k] ||
-        (holder_of(static_cast<int>(k)) >= 0 && holder_of(static_cast<int>(k)) != robot)) {
-      continue;
-    }
+    const int holder = holder_of(static_cast<int>(k));
+    if (holder >= 0 && holder != robot) continue;
     const double* p = d_->qpos + cube_qpos_[k];
     const mjtNum diff[3] = {p[0] - tp[0], p[1] - tp[1], p[2] - tp[2]};
     mjtNum local[3];
