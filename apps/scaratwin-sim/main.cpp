@@ -4,6 +4,7 @@
 #include <csignal>
 #include <cstdio>
 #include <cstdlib>
+#include <deque>
 #include <random>
 #include <thread>
 
@@ -227,15 +228,23 @@ int main(int argc, char** argv) {
   serve.bind_address = a.bind;
   serve.port = static_cast<std::uint16_t>(a.port);
   serve.save_images_dir = a.save_images;
-  web::LinkMonitor link_monitor;
-  // the page's link panel is robot 0's (in a workcell, the other robots' frames are theirs)
-  serve.on_joint_frame = [&link_monitor](const sim::JointFrame& f) {
-    if (f.robot == 0) link_monitor.on_joint_frame(f.seq, f.t_us, f.q, f.applied_us);
+  // one link monitor per robot: the page's link panel is robot 0's, the Robots table shows
+  // each robot's (a workcell's hubs each drive one robot)
+  std::deque<web::LinkMonitor> monitors((*world)->robot_count());
+  web::LinkMonitor& link_monitor = monitors.front();
+  serve.on_joint_frame = [&monitors](const sim::JointFrame& f) {
+    if (f.robot >= 0 && f.robot < static_cast<int>(monitors.size())) {
+      monitors[static_cast<std::size_t>(f.robot)].on_joint_frame(f.seq, f.t_us, f.q, f.applied_us);
+    }
   };
   // a new hub (its hello) or a mode switch starts a new stream of frames, decided on the
   // server's thread in order with the frames (the feed's polling of the connection state can
   // miss a hub that left and another that came between two polls)
-  serve.on_new_stream = [&link_monitor] { link_monitor.restart_sequence(); };
+  serve.on_new_stream = [&monitors](int robot) {
+    if (robot >= 0 && robot < static_cast<int>(monitors.size())) {
+      monitors[static_cast<std::size_t>(robot)].restart_sequence();
+    }
+  };
   serve.on_twin_phase = [&link_monitor](const std::string& phase) {
     link_monitor.set_twin_mode(phase);
   };
@@ -269,6 +278,20 @@ int main(int argc, char** argv) {
     wo_web.port = static_cast<std::uint16_t>(a.http_port);
     if (!a.web_root.empty()) wo_web.root_dir = a.web_root;
     sim::SimServer* srv = server->get();
+    if (monitors.size() > 1) {
+      wo_web.robot_links = [&monitors, srv, was = std::vector<char>(monitors.size(), 0)]() mutable {
+        std::vector<web::LinkStatus> out;
+        for (std::size_t r = 0; r < monitors.size(); ++r) {
+          const bool now = srv->robot_controlled(static_cast<int>(r));
+          if (r > 0 && now != static_cast<bool>(was[r])) {
+            monitors[r].set_connected(now);  // robot 0's follows the link panel's below
+            was[r] = now;
+          }
+          out.push_back(monitors[r].status());
+        }
+        return out;
+      };
+    }
     auto ui = web::WebServer::create(**world, wo_web, [&link_monitor, srv, was = false]() mutable {
       if (const bool now = srv->peer_connected(); now != was) {
         link_monitor.set_connected(now);  // a new hub starts a new sequence

@@ -258,7 +258,7 @@ Robot start_robot(const Bench& b, int index, std::set<pid_t>& known) {
   // the firmware's own hello after reset carries no hash: ask until one answers with it
   const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(10);
   for (;;) {
-    auto hi = ch.request(pr::Hello{pr::kProtocolVersion, {}, {}, b.description}, milliseconds(500));
+    auto hi = ch.request(pr::Hello{pr::kProtocolVersion, {}, {}, b.description, std::nullopt}, milliseconds(500));
     const auto* peer = hi ? std::get_if<pr::PeerHello>(&hi->last()) : nullptr;
     if (peer != nullptr && !peer->description.empty()) {
       if (peer->description != b.description) {

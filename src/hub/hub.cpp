@@ -38,13 +38,26 @@ constexpr const char* kInterrupted = "interrupted";
 constexpr double kRobotSilenceAbortMinS = 1.5;
 // A watchdog pass this much later than due: the hub itself was not running.
 constexpr std::int64_t kLatePassUs = 100000;
+// Longest time between two trajectory points sent to the robot (the firmware's limit is 5 s).
+constexpr double kLongestPointS = 4.0;
 
 // The hub's hello to the simulator: with a token it says it means to control (security.md).
-// `description`: the hash of the hub's robot description, or "" for a v1 hello.
+// `description`: the hash of the hub's robot description, or "" for a v1 hello. A described
+// hello of a controlling hub names its robot: the simulator lets one controller drive each
+// robot of its workcell.
 pr::Hello sim_hello(const HubOptions& o, const std::string& description) {
   const std::string role =
       !o.sim_role.empty() ? o.sim_role : (o.sim_token.empty() ? "" : "control");
-  return pr::Hello{pr::kProtocolVersion, role, o.sim_token, description};
+  pr::Hello h{pr::kProtocolVersion, role, o.sim_token, description, std::nullopt};
+  if (!description.empty() && role != "observe") h.robot = o.sim_robot;
+  return h;
+}
+
+std::string no_sim_robot(const HubOptions& o) {
+  return fmt::format(
+      "the simulator at {}:{} has no robot {} (it counts from 0): start it with the workcell "
+      "this robot belongs to",
+      o.sim_host, o.sim_port, o.sim_robot);
 }
 
 // A v1 peer does not know the hello's description field: it answers ER 4 (wrong field count).
@@ -160,7 +173,8 @@ Result<std::unique_ptr<Hub>> Hub::connect(const RobotModel& model,
   int undescribed_replies = 0;
   for (;;) {
     auto r = t->robot_->request(
-        pr::Hello{pr::kProtocolVersion, {}, {}, described ? description : ""}, milliseconds(500));
+        pr::Hello{pr::kProtocolVersion, {}, {}, described ? description : "", std::nullopt},
+        milliseconds(500));
     if (!r && described && refused_described_hello(r.error())) {
       described = false;
       continue;
@@ -202,6 +216,7 @@ Result<std::unique_ptr<Hub>> Hub::connect(const RobotModel& model,
     }
   }
   if (!hi) {
+    if (hi.error().code == protocol_error_code(pr::kErrNoRobot)) return hub_error(no_sim_robot(o));
     if (hi.error().code == protocol_error_code(pr::kErrAccess)) {
       return hub_error(fmt::format("simulator at {}:{} refused the hub: {}", o.sim_host, o.sim_port,
                                    access_refusal(hi.error().message, o)));
@@ -213,10 +228,7 @@ Result<std::unique_ptr<Hub>> Hub::connect(const RobotModel& model,
   if (o.sim_robot != 0) {
     auto qs = t->sim_->request(pr::QueryState{o.sim_robot}, milliseconds(2000));
     if (!qs && qs.error().code == protocol_error_code(pr::kErrNoRobot)) {
-      return hub_error(fmt::format(
-          "the simulator at {}:{} has no robot {} (it counts from 0): start it with the "
-          "workcell this robot belongs to",
-          o.sim_host, o.sim_port, o.sim_robot));
+      return hub_error(no_sim_robot(o));
     }
     if (!qs) return hub_error(fmt::format("simulator state: {}", qs.error().message));
   }
@@ -1056,7 +1068,23 @@ Result<int> Hub::run_trajectory(const JointTrajectory& traj, double timeout_s) {
       keep = true;
       ++next_event;
     }
-    if (keep) sent.samples.push_back(smp);
+    if (keep) {
+      // the firmware takes a point at most 5 s after the previous one (docs/protocol.md, TP):
+      // a longer stretch (a robot of a workcell waiting for another) gets points between, on
+      // the line the robot interpolates anyway
+      if (!sent.samples.empty()) {
+        const JointSample prev = sent.samples.back();
+        const int pieces = static_cast<int>(std::ceil((smp.t_s - prev.t_s) / kLongestPointS));
+        for (int i = 1; i < pieces; ++i) {
+          const double f = static_cast<double>(i) / pieces;
+          JointSample mid = prev;
+          mid.t_s = prev.t_s + f * (smp.t_s - prev.t_s);
+          for (int j = 0; j < kNumJoints; ++j) mid.q[j] = prev.q[j] + f * (smp.q[j] - prev.q[j]);
+          sent.samples.push_back(mid);
+        }
+      }
+      sent.samples.push_back(smp);
+    }
   }
   // whatever ends the trajectory early stops the robot first, so that it never keeps a
   // trajectory its host gave up on

@@ -74,6 +74,11 @@ Status Hub::reset_scene() {
   return Ok{};
 }
 
+Result<pr::ArmContacts> Hub::arm_contacts() {
+  return sim_reply<pr::ArmContacts>("arm contacts",
+                                    sim_->request(pr::QueryContacts{}, milliseconds(2000)));
+}
+
 Result<std::vector<pr::ObjectPose>> Hub::objects() {
   auto r = statements_->object_positions();
   if (!r) return hub_error(fmt::format("simulator objects: {}", r.error().message));

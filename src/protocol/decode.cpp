@@ -194,6 +194,10 @@ void get(Reader& r, Hello& m, const field::HelloAccess&) {
     m.token = field_text(r.p, r.i + 1);
   }
 }
+void get(Reader& r, Hello& m, const field::HelloRobot&) {
+  r.check(r.i, 0, core::kMaxRobotIndex);
+  m.robot = r.p.i32(r.i);
+}
 void get(Reader& r, Jog& m, const field::JogDelta&) {
   const std::int32_t v = r.p.i32(r.i);
   m.delta = m.axis == Axis::kWrist ? wire::cdeg_to_rad(v) : v;

@@ -87,13 +87,14 @@ class Writer {
     return Ok{};
   }
 
- private:
   void fail(const char* name, const std::string& value, const char* valid) {
     if (!error_) {
       error_ = Error{protocol_error_code(core::kErrBadValue),
                      "encode " + code_ + ": " + name + " = " + value + "; valid: " + valid};
     }
   }
+
+ private:
   void put_int(std::optional<std::int32_t> v, double raw, const char* name, const char* valid) {
     if (!v) {
       fail(name, std::to_string(raw), valid);
@@ -189,6 +190,19 @@ void put(Writer& w, const Hello& m, const field::HelloAccess&) {
     w.text(m.role.empty() ? "control" : m.role, "role");
   }
   if (!m.token.empty() || described) w.text(m.token.empty() ? "-" : m.token, "token");
+}
+// after the description hash, which it needs (a field's place is its meaning)
+void put(Writer& w, const Hello& m, const field::HelloRobot&) {
+  if (!m.robot) return;
+  if (!w.tcp()) {
+    w.fail("robot", std::to_string(*m.robot), "none (the serial link reaches one robot)");
+  } else if (m.description.empty()) {
+    w.fail("robot", std::to_string(*m.robot), "none without a description hash");
+  } else if (*m.robot < 0 || *m.robot > core::kMaxRobotIndex) {
+    w.fail("robot", std::to_string(*m.robot), "0..255");
+  } else {
+    w.i32(*m.robot);
+  }
 }
 void put(Writer& w, const Jog& m, const field::JogDelta&) {
   if (m.axis == Axis::kWrist) {

@@ -3,6 +3,7 @@
 
 #include "scaratwin/sim/server.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
@@ -25,9 +26,10 @@ namespace core = scaratwin::protocol::core;
 constexpr const char* kDeviceName = "scaratwin-sim";
 constexpr const char* kSoftwareVersion = "0.1.0";
 // ER,18 details (docs/protocol.md section 6)
-constexpr std::int32_t kAccessToken = 1;     // token missing or wrong
-constexpr std::int32_t kAccessInUse = 2;     // another client controls the simulator
-constexpr std::int32_t kAccessObserver = 3;  // an observer may only query
+constexpr std::int32_t kAccessToken = 1;       // token missing or wrong
+constexpr std::int32_t kAccessInUse = 2;       // another client controls the simulator
+constexpr std::int32_t kAccessObserver = 3;    // an observer may only query
+constexpr std::int32_t kAccessOtherRobot = 4;  // a controller of one robot addressed another
 
 std::uint32_t wrap_us(double seconds) {
   return static_cast<std::uint32_t>(static_cast<std::uint64_t>(std::llround(seconds * 1e6)));
@@ -53,20 +55,35 @@ struct SimServer::Impl {
   std::atomic<std::uint64_t> packets{0}, errors_sent{0}, joint_frames{0}, images_sent{0},
       warnings_sent{0};
 
-  // the hash of the description the simulator runs, which its hello carries
-  std::string description;
+  // per robot: the hash of its description, which the hello reply carries
+  std::vector<std::string> descriptions;
+
+  // Who controls what (docs/security.md): the link's controlling peer drives the robot its
+  // hello named, or every robot (a hello naming none); each further controller names another
+  // robot and is served apart. Io thread only (admission, the link's handler, `closed`).
+  // Written under claims_mutex (robot_controlled() reads them from any thread).
+  mutable std::mutex claims_mutex;
+  std::optional<int> session_robot;
+  std::vector<char> served_robot;  // per robot: a controller served apart drives it
 
   Impl(World& w, ServerOptions o)
       : world(w),
         options(std::move(o)),
         stream_first_us(static_cast<std::size_t>(w.robot_count()), 0),
-        description(description_hash(w.robot())) {}
+        served_robot(static_cast<std::size_t>(w.robot_count()), 0) {
+    w.with_simulation([&](Simulation& s) {
+      for (int r = 0; r < s.robot_count(); ++r)
+        descriptions.push_back(description_hash(s.robot(r)));
+    });
+  }
 
-  // The hello reply: with the description hash when the hub's hello carried its own (a v1
-  // hub gets a v1 reply).
+  // The hello reply: with the description hash (of the robot the hello names, else robot 0's)
+  // when the hub's hello carried its own (a v1 hub gets a v1 reply).
   proto::PeerHello peer_hello(const proto::Hello& m) const {
+    std::size_t r = m.robot ? static_cast<std::size_t>(*m.robot) : 0;
+    if (r >= descriptions.size()) r = 0;
     return proto::PeerHello{core::kProtocolVersion, kDeviceName, kSoftwareVersion,
-                            m.description.empty() ? std::string{} : description};
+                            m.description.empty() ? std::string{} : descriptions.at(r)};
   }
 
   void put(std::string& out, const proto::TcpFromSim& m) {
@@ -88,20 +105,42 @@ struct SimServer::Impl {
     }
   }
 
-  void on(std::string& out, const proto::Hello& m) {
+  void on(std::string& out, const proto::Hello& m, std::optional<int> claim) {
     if (m.version != core::kProtocolVersion) {
       error(out, core::kErrVersion, core::kProtocolVersion);
       return;
     }
-    if (options.on_new_stream) options.on_new_stream();
+    if (m.robot && *m.robot >= world.robot_count()) {
+      error(out, core::kErrNoRobot, world.robot_count());
+      return;
+    }
+    if (claim && m.robot != claim) {
+      // a controller of one robot does not become another's by saying hello again
+      error(out, core::kErrAccess, kAccessOtherRobot);
+      return;
+    }
+    if (options.on_new_stream) {
+      if (m.robot) {
+        options.on_new_stream(*m.robot);
+      } else {
+        for (int r = 0; r < world.robot_count(); ++r) options.on_new_stream(r);
+      }
+    }
     // a new hub: a homing phase a hub left unfinished (it died) ends here
-    world.with_simulation([](Simulation& s) { s.restart_limit_warnings(); });
-    if (!m.description.empty() && m.description != description) {
+    world.with_simulation([&](Simulation& s) {
+      if (m.robot) {
+        s.restart_limit_warnings(*m.robot);
+      } else {
+        s.restart_limit_warnings();
+      }
+    });
+    const std::string& mine = descriptions.at(static_cast<std::size_t>(m.robot.value_or(0)));
+    if (!m.description.empty() && m.description != mine) {
       std::fprintf(stderr,
                    "scaratwin-sim: a hub built for robot description %s said hello; this "
                    "simulator runs description %s (the hub refuses it: start both with the same "
                    "--config)\n",
-                   m.description.c_str(), description.c_str());
+                   m.description.c_str(), mine.c_str());
     }
     put(out, peer_hello(m));
   }
@@ -149,16 +188,17 @@ struct SimServer::Impl {
     put(out, proto::JointApplied{seq, static_cast<std::uint32_t>(applied_us), robot});
   }
   void on(std::string& out, const proto::SetMode& m) {
-    if (options.on_new_stream) options.on_new_stream();
+    if (options.on_new_stream) options.on_new_stream(m.robot);
     world.with_simulation([&](Simulation& s) {
       s.set_mode(m.mode == proto::SimMode::kMirror ? Mode::kMirror : Mode::kSimulate, m.robot);
     });
     put(out, proto::Ack{"MD", std::nullopt});
   }
   void on(std::string& out, const proto::SetTwinPhase& m) {
-    world.with_simulation(
-        [&](Simulation& s) { s.set_limit_warnings(m.phase != proto::TwinPhase::kHoming); });
-    if (options.on_twin_phase) {
+    world.with_simulation([&](Simulation& s) {
+      s.set_limit_warnings(m.phase != proto::TwinPhase::kHoming, m.robot);
+    });
+    if (options.on_twin_phase && m.robot == 0) {  // the page's twin phase is robot 0's
       options.on_twin_phase(m.phase == proto::TwinPhase::kNone ? std::string()
                                                                : proto::phase_name(m.phase));
     }
@@ -282,6 +322,11 @@ struct SimServer::Impl {
     });
     put(out, st);
   }
+  void on(std::string& out, const proto::QueryContacts&) {
+    const Simulation::ArmContacts c =
+        world.with_simulation([](Simulation& s) { return s.arm_contacts(); });
+    put(out, proto::ArmContacts{c.count, c.robot_a, c.robot_b, wrap_us(c.t_s)});
+  }
   void on(std::string& out, const proto::Stop& m) {
     world.with_simulation([&](Simulation& s) { s.stop(m.robot); });
     put(out, proto::Ack{"SP", std::nullopt});
@@ -316,14 +361,22 @@ struct SimServer::Impl {
         }
       } else if (std::holds_alternative<proto::Ping>(msg) ||
                  std::holds_alternative<proto::QueryState>(msg) ||
+                 std::holds_alternative<proto::QueryContacts>(msg) ||
                  std::holds_alternative<proto::QueryObjects>(msg)) {
-        std::visit([&](const auto& q) { dispatch(out, q); }, msg);
+        std::visit([&](const auto& q) { dispatch(out, q, std::nullopt); }, msg);
       } else {
         error(out, core::kErrAccess, kAccessObserver);
       }
     });
     if (out.empty()) error(out, core::kErrBadCharacter, 0);
     return out;
+  }
+
+  static transport::AdmissionDecision decision(transport::Admission a, std::string reply = {}) {
+    transport::AdmissionDecision d;
+    d.admission = a;
+    d.reply = std::move(reply);
+    return d;
   }
 
   // Judges a new connection on its first line (transport::AdmitFn).
@@ -335,14 +388,14 @@ struct SimServer::Impl {
                    "scaratwin-sim: closed a connection from %s: it sent an HTTP request "
                    "(\"%.40s\"), not the simulator protocol; nothing of it was run\n",
                    peer.c_str(), std::string(first.substr(0, 40)).c_str());
-      return {Admission::kRefuse, {}};
+      return decision(Admission::kRefuse);
     }
     if (!complete) {
       // silent for first_line_timeout: it would hold the simulator without saying who it is
       std::fprintf(stderr,
                    "scaratwin-sim: closed a connection from %s: no complete line within 10 s\n",
                    peer.c_str());
-      return {Admission::kRefuse, {}};
+      return decision(Admission::kRefuse);
     }
     std::optional<proto::Hello> hello;
     {
@@ -359,7 +412,7 @@ struct SimServer::Impl {
       std::fprintf(stderr, "scaratwin-sim: refused a connection from %s: %s\n", peer.c_str(), why);
       std::string reply;
       error(reply, core::kErrAccess, detail);
-      return transport::AdmissionDecision{Admission::kRefuse, std::move(reply)};
+      return decision(Admission::kRefuse, std::move(reply));
     };
     if (!options.token.empty() && (!hello || hello->token != options.token)) {
       return refuse(kAccessToken,
@@ -367,12 +420,43 @@ struct SimServer::Impl {
                         ? "wrong token"
                         : "no token (this simulator needs HI,1,control,<token>, first)");
     }
-    if (hello && hello->role == "observe") return {Admission::kObserve, {}};
-    if (controller) {
-      return refuse(kAccessInUse,
-                    "another client controls the simulator (an observer says HI,1,observe,)");
+    if (hello && hello->role == "observe") return decision(Admission::kObserve);
+    const std::optional<int> robot = hello ? hello->robot : std::nullopt;
+    if (robot && *robot >= world.robot_count()) {
+      // its hello is answered ER,19 by the handler; it holds nothing
+      std::string reply;
+      error(reply, core::kErrNoRobot, world.robot_count());
+      std::fprintf(stderr, "scaratwin-sim: refused a connection from %s: no robot %d here\n",
+                   peer.c_str(), *robot);
+      return decision(Admission::kRefuse, std::move(reply));
     }
-    return {Admission::kControl, {}};
+    std::unique_lock claims(claims_mutex);
+    const bool any_served =
+        std::any_of(served_robot.begin(), served_robot.end(), [](char c) { return c != 0; });
+    if (!controller &&
+        !(any_served && (!robot || served_robot[static_cast<std::size_t>(*robot)]))) {
+      session_robot = robot;
+      return decision(Admission::kControl);
+    }
+    // a further controller: of one robot that nobody drives yet
+    if (controller && robot && session_robot && *session_robot != *robot &&
+        !served_robot[static_cast<std::size_t>(*robot)]) {
+      const int r = *robot;
+      served_robot[static_cast<std::size_t>(r)] = 1;
+      std::fprintf(stderr, "scaratwin-sim: %s controls robot %d\n", peer.c_str(), r);
+      transport::AdmissionDecision d = decision(Admission::kServe);
+      d.serve = [this, r](const transport::Frame& f) { return handle_frame(f.kind, f.line, r); };
+      d.closed = [this, r] {
+        std::lock_guard lock(claims_mutex);
+        served_robot[static_cast<std::size_t>(r)] = 0;
+      };
+      return d;
+    }
+    claims.unlock();
+    return refuse(kAccessInUse, robot ? "another client controls that robot (an observer says "
+                                        "HI,1,observe,)"
+                                      : "another client controls the simulator (an observer "
+                                        "says HI,1,observe,)");
   }
 
   static bool looks_like_http(std::string_view first) {
@@ -387,18 +471,59 @@ struct SimServer::Impl {
 
   // A robot-addressed packet (protocol v2) for a robot the simulator does not have is
   // refused with ER,19,<robots it has>, and nothing of it is applied.
+  // A controller of one robot (`claim`) may command that robot only, query every robot, and
+  // not reset the scene of a workcell (that moves every robot): ER,18,4 otherwise.
   template <typename M>
-  void dispatch(std::string& out, const M& m) {
-    if constexpr (requires { m.robot; }) {
-      if (m.robot < 0 || m.robot >= world.robot_count()) {
-        error(out, core::kErrNoRobot, world.robot_count());
-        return;
+  void dispatch(std::string& out, const M& m, std::optional<int> claim) {
+    if constexpr (std::is_same_v<M, proto::Hello>) {
+      on(out, m, claim);
+      return;
+    } else {
+      if constexpr (requires { m.robot; }) {
+        if (m.robot < 0 || m.robot >= world.robot_count()) {
+          error(out, core::kErrNoRobot, world.robot_count());
+          return;
+        }
+        if (claim && m.robot != *claim && !std::is_same_v<M, proto::QueryState>) {
+          error(out, core::kErrAccess, kAccessOtherRobot);
+          return;
+        }
       }
+      if constexpr (std::is_same_v<M, proto::ResetScene>) {
+        if (claim && world.robot_count() > 1) {
+          error(out, core::kErrAccess, kAccessOtherRobot);
+          return;
+        }
+      }
+      on(out, m);
     }
-    on(out, m);
   }
 
-  std::string handle(const std::string& line) {
+  // One frame of a controlling connection -> its reply; `claim`: the robot it drives.
+  std::string handle_frame(transport::FrameKind kind, const std::string& line,
+                           std::optional<int> claim) {
+    std::string reply;
+    switch (kind) {
+      case transport::FrameKind::kLine:
+        return handle(line, claim);
+      case transport::FrameKind::kOverlong:
+        ++packets;
+        error(reply, core::kErrLineTooLong, 512);
+        break;
+      case transport::FrameKind::kBinary:
+        // an image sent to the simulator: IM is not a hub -> simulator code
+        ++packets;
+        error(reply, core::kErrUnknownCode);
+        break;
+      case transport::FrameKind::kOversize:
+        ++packets;
+        error(reply, core::kErrPayloadTooLarge);
+        break;
+    }
+    return reply;
+  }
+
+  std::string handle(const std::string& line, std::optional<int> claim) {
     std::lock_guard lock(handle_mutex);
     ++packets;
     std::string out;
@@ -411,7 +536,7 @@ struct SimServer::Impl {
         error(out, e->code, e->detail);
         return;
       }
-      std::visit([&](const auto& m) { dispatch(out, m); }, std::get<proto::TcpToSim>(d));
+      std::visit([&](const auto& m) { dispatch(out, m, claim); }, std::get<proto::TcpToSim>(d));
     });
     if (seen == 0) {
       // an incomplete line cannot happen here; keep the one-reply rule anyway
@@ -460,25 +585,7 @@ Result<std::unique_ptr<SimServer>> SimServer::create(World& world, const ServerO
   impl.link = std::move(*link);
   transport::TcpServer* raw = impl.link.get();
   impl.link->set_packet_handler([&impl, raw](transport::RxPacket&& p) {
-    std::string reply;
-    switch (p.kind) {
-      case transport::FrameKind::kLine:
-        reply = impl.handle(p.line);
-        break;
-      case transport::FrameKind::kOverlong:
-        ++impl.packets;
-        impl.error(reply, core::kErrLineTooLong, 512);
-        break;
-      case transport::FrameKind::kBinary:
-        // an image sent to the simulator: IM is not a hub -> simulator code
-        ++impl.packets;
-        impl.error(reply, core::kErrUnknownCode);
-        break;
-      case transport::FrameKind::kOversize:
-        ++impl.packets;
-        impl.error(reply, core::kErrPayloadTooLarge);
-        break;
-    }
+    std::string reply = impl.handle_frame(p.kind, p.line, impl.session_robot);
     if (!reply.empty()) (void)raw->send(std::move(reply));
   });
   return s;
@@ -486,6 +593,14 @@ Result<std::unique_ptr<SimServer>> SimServer::create(World& world, const ServerO
 
 std::uint16_t SimServer::port() const { return impl_->link->port(); }
 bool SimServer::peer_connected() const { return impl_->link->connected(); }
+
+bool SimServer::robot_controlled(int robot) const {
+  const Impl& impl = *impl_;
+  std::lock_guard lock(impl.claims_mutex);
+  if (robot < 0 || robot >= static_cast<int>(impl.served_robot.size())) return false;
+  if (impl.served_robot[static_cast<std::size_t>(robot)]) return true;
+  return impl.link->connected() && (!impl.session_robot || *impl.session_robot == robot);
+}
 
 ServerCounters SimServer::counters() const {
   ServerCounters c;
@@ -497,6 +612,8 @@ ServerCounters SimServer::counters() const {
   return c;
 }
 
-std::string SimServer::handle_line(const std::string& line) { return impl_->handle(line); }
+std::string SimServer::handle_line(const std::string& line) {
+  return impl_->handle(line, std::nullopt);
+}
 
 }  // namespace scaratwin::sim

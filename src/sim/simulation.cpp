@@ -231,8 +231,68 @@ Status Simulation::init(const Workcell& workcell, const SimOptions& options) {
     for (int i = 0; i < 3; ++i) pattern_pos_[i] = m_->geom_pos[3 * pattern_geom_ + i];
     pattern_shown_ = true;
   }
+  setup_arm_collisions();
   for (Arm& a : arms_) apply_mirror_pose(a);
   return forward();
+}
+
+// Robot i's arm geoms (those that collide with nothing in the single robot's model: the
+// column and the links) get contype bit i+1 and an affinity for every other robot's bit, so
+// two arms collide and an arm never with itself, the table or the cubes (bit 0).
+void Simulation::setup_arm_collisions() {
+  const int n = robot_count();
+  if (n < 2) return;
+  constexpr int kMaxArms = 30;  // one contype bit each, bit 0 being the scene's
+  std::vector<int> base_body;
+  for (const Arm& a : arms_) {
+    base_body.push_back(mj_name2id(m_, mjOBJ_BODY, (a.name + "/base_frame").c_str()));
+  }
+  geom_robot_.assign(static_cast<std::size_t>(m_->ngeom), -1);
+  for (int g = 0; g < m_->ngeom; ++g) {
+    for (int b = m_->geom_bodyid[g]; b > 0; b = m_->body_parentid[b]) {
+      const auto it = std::find(base_body.begin(), base_body.end(), b);
+      if (it != base_body.end()) {
+        geom_robot_[g] = static_cast<int>(it - base_body.begin());
+        break;
+      }
+    }
+    const int r = geom_robot_[g];
+    if (r < 0 || r >= kMaxArms || m_->geom_contype[g] != 0 || m_->geom_conaffinity[g] != 0) {
+      continue;
+    }
+    int others = 0;
+    for (int o = 0; o < std::min(n, kMaxArms); ++o) {
+      if (o != r) others |= 1 << (o + 1);
+    }
+    m_->geom_contype[g] = 1 << (r + 1);
+    m_->geom_conaffinity[g] = others;
+  }
+  touching_.assign(static_cast<std::size_t>(n * n), 0);
+}
+
+void Simulation::note_arm_contacts() {
+  if (geom_robot_.empty()) return;
+  const int n = robot_count();
+  std::vector<char> now(touching_.size(), 0);
+  for (int c = 0; c < d_->ncon; ++c) {
+    int a = geom_robot_[d_->contact[c].geom1];
+    int b = geom_robot_[d_->contact[c].geom2];
+    if (a < 0 || b < 0 || a == b) continue;
+    if (a > b) std::swap(a, b);
+    now[static_cast<std::size_t>(a * n + b)] = 1;
+  }
+  for (int a = 0; a < n; ++a) {
+    for (int b = a + 1; b < n; ++b) {
+      const auto k = static_cast<std::size_t>(a * n + b);
+      if (now[k] && !touching_[k]) {
+        ++arm_contacts_.count;
+        arm_contacts_.robot_a = a;
+        arm_contacts_.robot_b = b;
+        arm_contacts_.t_s = d_->time;
+      }
+    }
+  }
+  touching_ = std::move(now);
 }
 
 Result<std::unique_ptr<Simulation>> Simulation::clone() const {
@@ -259,6 +319,9 @@ Result<std::unique_ptr<Simulation>> Simulation::clone() const {
   s->options_ = options_;
   s->mjcf_ = mjcf_;
   s->arms_ = arms_;
+  s->geom_robot_ = geom_robot_;
+  s->touching_ = touching_;
+  s->arm_contacts_ = arm_contacts_;
   s->pool_per_color_ = pool_per_color_;
   s->cube_body_ = cube_body_;
   s->cube_qpos_ = cube_qpos_;
@@ -271,7 +334,6 @@ Result<std::unique_ptr<Simulation>> Simulation::clone() const {
   s->pattern_pos_ = pattern_pos_;
   s->pattern_shown_ = pattern_shown_;
   s->warnings_ = warnings_;
-  s->limit_warnings_ = limit_warnings_;
   s->warnings_total_ = warnings_total_;
   return s;
 }
@@ -308,8 +370,8 @@ JointWarning Simulation::push_warning(int robot, int joint, double value) {
 
 std::vector<JointWarning> Simulation::note_limits(int robot, const JointVector& q) {
   std::vector<JointWarning> out;
-  if (!limit_warnings_) return out;
   Arm& a = arm(robot);
+  if (!a.limit_warnings) return out;
   for (int j = 0; j < kNumJoints; ++j) {
     const bool outside = !a.robot.limits[j].contains(q[j]);
     if (outside && !a.outside[j]) out.push_back(push_warning(robot, j, q[j]));
@@ -584,6 +646,7 @@ Status Simulation::step(int n) {
           }
         }
         mj_step(s->m_, s->d_);
+        s->note_arm_contacts();
         for (Arm& a : arms) {
           if (a.mode == Mode::kMirror) s->apply_mirror_pose(a);
         }

@@ -150,6 +150,7 @@ Snapshot World::snapshot() const {
   out.tool_path = s.tool_path();
   out.recent_warnings.assign(s.recent_warnings().begin(), s.recent_warnings().end());
   out.warnings_total = s.warnings_total();
+  out.arm_touches = s.arm_contacts().count;
   const mjModel* m = s.model();
   const mjData* d = s.data();
   out.bodies.resize(m->nbody);

@@ -242,6 +242,10 @@ class TcpServerImpl final : public detail::LinkImpl {
       if (auto o = w.lock()) o->socket.close(ignored);
     }
     observers_.clear();
+    for (auto& w : served_) {
+      if (auto o = w.lock()) o->socket.close(ignored);
+    }
+    served_.clear();
   }
 
  private:
@@ -333,6 +337,9 @@ class TcpServerImpl final : public detail::LinkImpl {
       case Admission::kObserve:
         observe(n);
         return;
+      case Admission::kServe:
+        serve_apart(n, std::move(d));
+        return;
       case Admission::kRefuse:
         refuse(std::move(n->socket), std::move(d.reply));
         return;
@@ -350,11 +357,21 @@ class TcpServerImpl final : public detail::LinkImpl {
                       });
   }
 
-  // An observer: its own splitter, its frames answered by observe_ in order, one at a time.
+  // A connection served apart (an observer, or kServe): its own splitter, its frames answered
+  // by `serve` in order, one at a time; `closed` runs once when it ends.
   struct Observer {
-    Observer(tcp::socket s, const SplitterOptions& o) : socket(std::move(s)), splitter(o) {}
+    Observer(tcp::socket s, const SplitterOptions& o, ServeFn fn, std::function<void()> on_close)
+        : socket(std::move(s)), splitter(o), serve(std::move(fn)), closed(std::move(on_close)) {}
+    // Closes the connection; `closed` runs once (not when the server itself closes).
+    void end() {
+      boost::system::error_code ignored;
+      socket.close(ignored);
+      if (closed) std::exchange(closed, nullptr)();
+    }
     tcp::socket socket;
     LineSplitter splitter;
+    ServeFn serve;
+    std::function<void()> closed;
     std::array<char, 4096> buffer{};
   };
 
@@ -367,26 +384,38 @@ class TcpServerImpl final : public detail::LinkImpl {
     }
     tcp::socket socket = rewrap(std::move(n->socket), context());
     tune_socket(socket);
-    auto o = std::make_shared<Observer>(std::move(socket), options().splitter);
+    auto o = std::make_shared<Observer>(std::move(socket), options().splitter, observe_,
+                                        std::function<void()>{});
     observers_.push_back(o);
+    serve_observer(o, std::move(n->bytes));
+  }
+
+  void serve_apart(const std::shared_ptr<Newcomer>& n, AdmissionDecision d) {
+    std::erase_if(served_, [](const std::weak_ptr<Observer>& w) { return w.expired(); });
+    tcp::socket socket = rewrap(std::move(n->socket), context());
+    tune_socket(socket);
+    auto o = std::make_shared<Observer>(std::move(socket), options().splitter, std::move(d.serve),
+                                        std::move(d.closed));
+    served_.push_back(o);
     serve_observer(o, std::move(n->bytes));
   }
 
   void serve_observer(const std::shared_ptr<Observer>& o, std::string_view bytes) {
     auto reply = std::make_shared<std::string>();
-    o->splitter.feed(bytes, [&](Frame&& f) { reply->append(observe_(f)); });
+    o->splitter.feed(bytes, [&](Frame&& f) { reply->append(o->serve(f)); });
     auto next = [self = self(), o](const boost::system::error_code& ec, std::size_t) {
-      if (self->closed() || ec) return;
+      if (self->closed()) return;
+      if (ec) {
+        o->end();
+        return;
+      }
       o->socket.async_read_some(asio::buffer(o->buffer),
                                 [self, o](const boost::system::error_code& rec, std::size_t got) {
                                   if (self->closed()) return;
                                   if (got > 0)
                                     self->serve_observer(o,
                                                          std::string_view(o->buffer.data(), got));
-                                  if (rec) {
-                                    boost::system::error_code ignored;
-                                    o->socket.close(ignored);
-                                  }
+                                  if (rec) o->end();
                                 });
     };
     if (reply->empty()) {
@@ -428,6 +457,7 @@ class TcpServerImpl final : public detail::LinkImpl {
   Duration first_line_timeout_{10000};
   std::size_t max_observers_ = 8;
   std::vector<std::weak_ptr<Observer>> observers_;
+  std::vector<std::weak_ptr<Observer>> served_;
 };
 
 }  // namespace

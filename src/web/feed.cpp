@@ -166,6 +166,22 @@ std::string scene_message(const RobotModel& robot, const sim::SceneGeometry& geo
   return out.dump();
 }
 
+namespace {
+// A link's figures: connected, frames, lost, rate, and the latencies once a frame came.
+json link_figures(const LinkStatus& link) {
+  json j = {{"connected", link.connected},
+            {"frames", link.frames},
+            {"lost", link.lost},
+            {"rate_hz", round_to(link.frame_rate_hz, 0.1)}};
+  if (link.has_latency) {
+    j["latency_ms"] = round_to(link.latency_last_s * 1e3, 1e-3);
+    j["latency_mean_ms"] = round_to(link.latency_mean_s * 1e3, 1e-3);
+    j["latency_max_ms"] = round_to(link.latency_max_s * 1e3, 1e-3);
+  }
+  return j;
+}
+}  // namespace
+
 std::string twin_mode(const sim::Snapshot& snapshot, const LinkStatus& link, double world_speed) {
   if (!link.twin_mode.empty()) return link.twin_mode;
   if (snapshot.mode == sim::Mode::kMirror) return "mirror";
@@ -198,15 +214,7 @@ std::string state_message(const RobotModel& robot, const sim::Snapshot& s, const
                         {"min", display_value(w.joint, w.limit.min)},
                         {"max", display_value(w.joint, w.limit.max)}});
   }
-  json link_json = {{"connected", link.connected},
-                    {"frames", link.frames},
-                    {"lost", link.lost},
-                    {"rate_hz", round_to(link.frame_rate_hz, 0.1)}};
-  if (link.has_latency) {
-    link_json["latency_ms"] = round_to(link.latency_last_s * 1e3, 1e-3);
-    link_json["latency_mean_ms"] = round_to(link.latency_mean_s * 1e3, 1e-3);
-    link_json["latency_max_ms"] = round_to(link.latency_max_s * 1e3, 1e-3);
-  }
+  json link_json = link_figures(link);
   if (link.has_physical) {
     link_json["physical"] = display_json(link.physical);
     link_json["physical_age_s"] = round_to(link.physical_age_s, 1e-3);
@@ -233,15 +241,19 @@ std::string state_message(const RobotModel& robot, const sim::Snapshot& s, const
   // a workcell of several robots: each one's state (robot 0's is also the fields above)
   if (s.robots.size() > 1) {
     json robots = json::array();
-    for (const sim::RobotSnapshot& r : s.robots) {
-      robots.push_back({{"name", r.name},
-                        {"mode", sim::mode_name(r.mode)},
-                        {"display", display_json(r.joints)},
-                        {"tool", tool_json(r.tool)},
-                        {"gripper", {{"closed", r.gripper_closed}, {"held", r.held_cube}}},
-                        {"trajectory", r.trajectory_active}});
+    for (std::size_t i = 0; i < s.robots.size(); ++i) {
+      const sim::RobotSnapshot& r = s.robots[i];
+      json one = {{"name", r.name},
+                  {"mode", sim::mode_name(r.mode)},
+                  {"display", display_json(r.joints)},
+                  {"tool", tool_json(r.tool)},
+                  {"gripper", {{"closed", r.gripper_closed}, {"held", r.held_cube}}},
+                  {"trajectory", r.trajectory_active}};
+      if (i < extras.robot_links.size()) one["link"] = link_figures(extras.robot_links[i]);
+      robots.push_back(std::move(one));
     }
     out["robots"] = robots;
+    out["arm_touches"] = s.arm_touches;
   }
   if (extras.with_path) {
     json path = json::array();

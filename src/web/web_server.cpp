@@ -440,6 +440,7 @@ struct WebServer::Impl {
     extras.with_path = with_path;
     extras.clients = client_count.load();
     extras.world_speed = world.options().speed;
+    if (options.robot_links) extras.robot_links = options.robot_links();
     return state_message(world.robot(), snap, ls, extras);
   }
 

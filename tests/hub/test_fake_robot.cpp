@@ -159,13 +159,13 @@ class FakeRobotTest : public ::testing::Test {
 TEST_F(FakeRobotTest, AnswersHelloWithTheDescriptionHash) {
   ASSERT_NO_FATAL_FAILURE(start());
   const std::string hash = description_hash(model_);
-  EXPECT_EQ(reply(pr::Hello{1, {}, {}, hash}),
+  EXPECT_EQ(reply(pr::Hello{1, {}, {}, hash, std::nullopt}),
             pr::SerialFromDevice(pr::PeerHello{1, "fake", "0.1.0", hash}));
   // a version-1 hello (no hash) gets a version-1 answer
-  EXPECT_EQ(reply(pr::Hello{1, {}, {}, {}}),
+  EXPECT_EQ(reply(pr::Hello{1, {}, {}, {}, std::nullopt}),
             pr::SerialFromDevice(pr::PeerHello{1, "fake", "0.1.0", ""}));
   // another protocol version: ER 13 naming the supported one
-  auto r = request(pr::Hello{2, {}, {}, {}});
+  auto r = request(pr::Hello{2, {}, {}, {}, std::nullopt});
   ASSERT_FALSE(r);
   EXPECT_EQ(refused(r), 13);
   EXPECT_NE(r.error().message.find("detail 1"), std::string::npos) << r.error().message;
@@ -176,7 +176,7 @@ TEST_F(FakeRobotTest, AnswersWithTheHashItWasGiven) {
   FakeRobotOptions o;
   o.description_hash = "0badcafe";
   ASSERT_NO_FATAL_FAILURE(start(o));
-  const auto hi = reply(pr::Hello{1, {}, {}, description_hash(model_)});
+  const auto hi = reply(pr::Hello{1, {}, {}, description_hash(model_), std::nullopt});
   ASSERT_TRUE(std::holds_alternative<pr::PeerHello>(hi));
   EXPECT_EQ(std::get<pr::PeerHello>(hi).description, "0badcafe");
 }

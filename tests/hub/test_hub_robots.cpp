@@ -24,8 +24,10 @@
 #include "fake_robot.hpp"
 #include "hub_test_support.hpp"
 #include "scaratwin/config/robot_config.hpp"
+#include "scaratwin/config/workcell_config.hpp"
 #include "scaratwin/hub/hub.hpp"
 #include "scaratwin/hub/process.hpp"
+#include "scaratwin/kinematics/workcell.hpp"
 #include "scaratwin/trajectory/trajectory.hpp"
 
 namespace scaratwin {
@@ -142,6 +144,31 @@ TEST_F(HubRobots, TheHubHomesAndRunsATrajectoryOnTheFakeRobot) {
   EXPECT_EQ(end[2] - home[2], 302);
   EXPECT_GT((*hub)->serial_counters().packets_in, 0u);
   EXPECT_EQ((*hub)->mirror_counters().lost, 0u);
+}
+
+// A trajectory that stands still longer than one point may last (5 s, the firmware's TP limit:
+// a robot of a workcell waiting for the other arm) is sent as points at most 4 s apart, on the
+// robot's own line; before, its first long point was refused (TP ER 11, detail 1) and the
+// robot stopped.
+TEST_F(HubRobots, ALongWaitInATrajectoryIsSentAsPointsTheRobotTakes) {
+  auto robot = fake();
+  ASSERT_TRUE(robot);
+  auto hub = Hub::connect(model_, std::make_unique<FakeInterface>(robot), options(), nullptr);
+  ASSERT_TRUE(hub) << hub.error().message;
+  ASSERT_TRUE((*hub)->home(10.0));
+  const protocol::MotorSteps home = robot->state().steps;
+  const JointVector q0 = (*hub)->physical().q;
+  JointVector q1 = q0;
+  q1[1] += 0.4;  // 378 J2 steps, 302 J3 steps (as above)
+  auto plan = plan_quintic(model_, q0, q1);
+  ASSERT_TRUE(plan) << plan.error().message;
+  append_dwell(*plan, 5.5);
+  auto back = plan_quintic(model_, q1, q0);
+  ASSERT_TRUE(back);
+  append(*plan, *back);
+  auto points = (*hub)->run_trajectory(*plan, 30.0);
+  ASSERT_TRUE(points) << points.error().message;
+  EXPECT_EQ(robot->state().steps, home) << "there and back";
 }
 
 // A robot built for another description is refused at its hello, naming both hashes; the
@@ -295,6 +322,87 @@ TEST_F(HubRobots, TheCommandLinePicksTheRobotByName) {
   EXPECT_EQ(o.status, 0) << o.output;
   EXPECT_NE(left->state().flags & protocol::state_flags::kHomed, 0u);
   EXPECT_EQ(left->state().steps[0], 24667);
+}
+
+// issue 13: one process holds a hub per robot of a workcell, each with its robot's interface
+// (a fake here) and its own simulator link naming its robot; both drive their arms of one
+// simulator at once, and each arm of the simulator ends where its own robot's counts put it
+// (J2: 945 steps per rad, as above). A third hub for a robot that is driven is refused.
+TEST(HubWorkcell, TwoHubsDriveTheTwoArmsOfOneSimulatorAtOnce) {
+  const fs::path dir = fresh_dir("cell");
+  auto sim = ChildProcess::start(
+      kBin / "scaratwin-sim",
+      {"--workcell", kWorkcell.string(), "--port", "0", "--http-port", "0", "--no-camera"},
+      dir / "sim.log");
+  ASSERT_TRUE(sim) << sim.error().message;
+  auto port = test::simulator_port(**sim);
+  ASSERT_TRUE(port) << port.error().message;
+  auto cell = load_workcell_config(kWorkcell);
+  ASSERT_TRUE(cell.ok()) << cell.error().message;
+
+  std::vector<std::shared_ptr<FakeRobot>> fakes;
+  std::vector<std::unique_ptr<Hub>> hubs;
+  for (int i = 0; i < 2; ++i) {
+    auto f = FakeRobot::start(paper_model(), {});
+    ASSERT_TRUE(f) << f.error().message;
+    fakes.emplace_back(std::move(*f));
+    HubOptions o;
+    o.sim_port = *port;
+    o.sim_robot = i;
+    auto hub = Hub::connect(scene_in_base(*cell, i), std::make_unique<FakeInterface>(fakes.back()),
+                            o, nullptr);
+    ASSERT_TRUE(hub) << "robot " << i << ": " << hub.error().message;
+    hubs.push_back(std::move(*hub));
+  }
+  // a third hub for the right arm: refused before its robot is told anything but hello
+  auto third_robot = FakeRobot::start(paper_model(), {});
+  ASSERT_TRUE(third_robot);
+  std::shared_ptr<FakeRobot> third_fake = std::move(*third_robot);
+  HubOptions o3;
+  o3.sim_port = *port;
+  o3.sim_robot = 1;
+  auto third = Hub::connect(scene_in_base(*cell, 1), std::make_unique<FakeInterface>(third_fake),
+                            o3, nullptr);
+  ASSERT_FALSE(third.ok());
+  EXPECT_NE(third.error().message.find("another client controls it"), std::string::npos)
+      << third.error().message;
+  EXPECT_EQ(third_fake->moves_started(), 0);
+
+  // both home and turn their shoulders at once: left +0.4 rad, right -0.3 rad
+  const double turn[2] = {0.4, -0.3};
+  std::vector<std::future<Status>> runs;
+  for (int i = 0; i < 2; ++i) {
+    runs.push_back(std::async(std::launch::async, [&hubs, &turn, i]() -> Status {
+      Hub& hub = *hubs[static_cast<std::size_t>(i)];
+      hub.set_mirror(true);
+      if (Status s = hub.home(10.0); !s) return s;
+      const JointVector q0 = hub.physical().q;
+      JointVector q1 = q0;
+      q1[1] += turn[i];
+      auto plan = plan_quintic(hub.model(), q0, q1);
+      if (!plan) return plan.error();
+      auto r = hub.run_trajectory(*plan, 20.0);
+      if (!r) return r.error();
+      return Ok{};
+    }));
+  }
+  for (int i = 0; i < 2; ++i) {
+    const Status s = runs[static_cast<std::size_t>(i)].get();
+    ASSERT_TRUE(s) << "robot " << i << ": " << s.error().message;
+  }
+  // J2 counts: round(0.4 * 945) = 378 and round(-0.3 * 945) = -284 steps from home
+  const double want[2] = {378.0 / 945.0, -284.0 / 945.0};
+  for (int i = 0; i < 2; ++i) {
+    Hub& hub = *hubs[static_cast<std::size_t>(i)];
+    ASSERT_TRUE(hub.fresh_physical(2.0));
+    std::this_thread::sleep_for(200ms);  // the last report mirrored
+    auto st = hub.sim_state();
+    ASSERT_TRUE(st) << st.error().message;
+    EXPECT_EQ(st->robot, i);
+    EXPECT_NEAR(st->q[1], want[i], 2e-3) << "robot " << i << "'s arm in the simulator";
+    EXPECT_NEAR(st->q[0], 0.12, 1e-4) << "robot " << i << " at d1 120 mm";
+    EXPECT_EQ(hub.mirror_counters().lost, 0u) << "robot " << i;
+  }
 }
 
 }  // namespace

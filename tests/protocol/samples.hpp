@@ -19,7 +19,7 @@ inline double deg(double v) { return deg_to_rad(v); }
 inline std::vector<SerialToDevice> serial_to_device_samples() {
   return {
       Hello{},
-      Hello{1, {}, {}, "c6e454cc"},
+      Hello{1, {}, {}, "c6e454cc", std::nullopt},
       Ping{},
       Ping{42},
       SetReportRate{250},
@@ -66,8 +66,9 @@ inline std::vector<SerialFromDevice> serial_from_device_samples() {
 inline std::vector<TcpToSim> tcp_to_sim_samples() {
   return {
       Hello{},
-      Hello{1, "control", {}, "c6e454cc"},
-      Hello{1, "observe", "s3cret", "0123abcd"},
+      Hello{1, "control", {}, "c6e454cc", std::nullopt},
+      Hello{1, "observe", "s3cret", "0123abcd", std::nullopt},
+      Hello{1, "control", {}, "c6e454cc", 1},
       Ping{7},
       JointData{17, 5000123, {mm(120), deg(12.5), deg(-30.25), deg(90)}},
       JointData{65535, 4294967295u, {mm(0.001), deg(-105), deg(204.9999), deg(0)}},
@@ -88,6 +89,7 @@ inline std::vector<TcpToSim> tcp_to_sim_samples() {
       SetTwinPhase{TwinPhase::kNone},
       JointData{18, 5000124, {mm(120), deg(12.5), deg(-30.25), deg(90)}, 1},
       QueryState{2},
+      QueryContacts{},
   };
 }
 
@@ -109,6 +111,8 @@ inline std::vector<TcpFromSim> tcp_from_sim_samples() {
       Ack{"SC", 3},
       Ack{"RS", std::nullopt},
       ErrorReply{core::kErrBadValue, 0},
+      ArmContacts{},
+      ArmContacts{3, 0, 1, 1500000},
   };
 }
 

@@ -119,9 +119,11 @@ TEST(ProtocolEncode, RefusesValuesTheWireCannotCarry) {
 // The hello's description hash (docs/protocol.md section 11): an optional last field on both
 // links and in both directions; a v1 hello (without it) still decodes, to an empty hash.
 TEST(ProtocolHello, CarriesTheDescriptionHashOnBothLinks) {
-  EXPECT_EQ(*encode(Hello{1, {}, {}, "c6e454cc"}, Framing::kSerial), "HI=1=c6e454cc=\n");
-  EXPECT_EQ(*encode(Hello{1, {}, {}, "c6e454cc"}, Framing::kTcp), "HI,1,control,-,c6e454cc,\n");
-  EXPECT_EQ(*encode(Hello{1, "observe", "tok", "c6e454cc"}, Framing::kTcp),
+  EXPECT_EQ(*encode(Hello{1, {}, {}, "c6e454cc", std::nullopt}, Framing::kSerial),
+            "HI=1=c6e454cc=\n");
+  EXPECT_EQ(*encode(Hello{1, {}, {}, "c6e454cc", std::nullopt}, Framing::kTcp),
+            "HI,1,control,-,c6e454cc,\n");
+  EXPECT_EQ(*encode(Hello{1, "observe", "tok", "c6e454cc", std::nullopt}, Framing::kTcp),
             "HI,1,observe,tok,c6e454cc,\n");
   EXPECT_EQ(*encode(PeerHello{1, "scara-uno", "0.1.0", "0badf00d"}, Framing::kSerial),
             "HI=1=scara-uno=0.1.0=0badf00d=\n");
@@ -148,6 +150,41 @@ TEST(ProtocolHello, CarriesTheDescriptionHashOnBothLinks) {
   EXPECT_EQ(std::get<PeerHello>(std::get<0>(peer[1])).description, "");
 }
 
+// The robot a controlling hello names (docs/protocol.md section 11.3): TCP only, after the
+// description hash, which it needs; 0..255.
+TEST(ProtocolHello, NamesTheRobotItDrivesAfterTheDescription) {
+  EXPECT_EQ(*encode(Hello{1, {}, {}, "c6e454cc", 1}, Framing::kTcp),
+            "HI,1,control,-,c6e454cc,1,\n");
+  EXPECT_EQ(*encode(Hello{1, {}, {}, "c6e454cc", 0}, Framing::kTcp), "HI,1,control,-,c6e454cc,0,\n")
+      << "robot 0 named is not the same as no robot named (the whole simulator)";
+  for (auto [hello, framing] : {std::pair{Hello{1, {}, {}, "", 1}, Framing::kTcp},
+                                std::pair{Hello{1, {}, {}, "c6e454cc", 1}, Framing::kSerial},
+                                std::pair{Hello{1, {}, {}, "c6e454cc", 256}, Framing::kTcp},
+                                std::pair{Hello{1, {}, {}, "c6e454cc", -1}, Framing::kTcp}}) {
+    const auto bad = encode(hello, framing);
+    ASSERT_FALSE(bad.ok()) << hello.robot.value_or(-99);
+    EXPECT_EQ(bad.error().code, protocol_error_code(core::kErrBadValue));
+    EXPECT_NE(bad.error().message.find("robot"), std::string::npos) << bad.error().message;
+  }
+  TcpToSimDecoder to_sim;
+  auto hi = to_sim.feed("HI,1,control,-,c6e454cc,3,\nHI,1,control,-,c6e454cc,\n");
+  ASSERT_EQ(hi.size(), 2u);
+  EXPECT_EQ(std::get<Hello>(std::get<0>(hi[0])).robot, std::optional<std::int32_t>(3));
+  EXPECT_EQ(std::get<Hello>(std::get<0>(hi[1])).robot, std::nullopt);
+  auto bad = to_sim.feed("HI,1,control,-,c6e454cc,256,\n");
+  ASSERT_EQ(bad.size(), 1u);
+  const auto* e = std::get_if<DecodeError>(&bad[0]);
+  ASSERT_NE(e, nullptr);
+  EXPECT_EQ(e->code, core::kErrBadValue);
+  EXPECT_EQ(e->detail, 4);
+  SerialToDeviceDecoder to_device;
+  auto serial = to_device.feed("HI=1=c6e454cc=1=\n");
+  ASSERT_EQ(serial.size(), 1u);
+  ASSERT_TRUE(std::holds_alternative<DecodeError>(serial[0]))
+      << "the serial link reaches one robot: its hello has no robot field";
+  EXPECT_EQ(std::get<DecodeError>(serial[0]).code, core::kErrWrongFieldCount);
+}
+
 TEST(ProtocolHello, ABadDescriptionHashIsBadValueNamingTheField) {
   TcpFromSimDecoder from_sim;
   for (const char* line :
@@ -166,7 +203,7 @@ TEST(ProtocolHello, ABadDescriptionHashIsBadValueNamingTheField) {
   ASSERT_EQ(got.size(), 1u);
   ASSERT_TRUE(std::holds_alternative<DecodeError>(got[0]));
   EXPECT_EQ(std::get<DecodeError>(got[0]).detail, 1);
-  const auto bad = encode(Hello{1, {}, {}, "C6E454CC"}, Framing::kSerial);
+  const auto bad = encode(Hello{1, {}, {}, "C6E454CC", std::nullopt}, Framing::kSerial);
   ASSERT_FALSE(bad.ok());
   EXPECT_EQ(bad.error().code, protocol_error_code(core::kErrBadValue));
 }

@@ -8,6 +8,7 @@
 #include <unistd.h>
 
 #include <chrono>
+#include <filesystem>
 #include <string>
 #include <thread>
 
@@ -17,6 +18,7 @@
 #include "scaratwin/protocol/codec.hpp"
 #include "scaratwin/sim/server.hpp"
 #include "scaratwin/sim/world.hpp"
+#include "two_arms_server.hpp"
 
 namespace scaratwin::sim {
 namespace {
@@ -214,8 +216,8 @@ TEST_F(AccessTest, TokenIsCheckedOnEveryConnection) {
   }
   EXPECT_EQ(cubes(), 0u);
   // the hub's hello, as the hub encodes it
-  const auto hello =
-      protocol::encode(protocol::TcpToSim(protocol::Hello{1, "control", "s3cret-Token_1", {}}));
+  const auto hello = protocol::encode(
+      protocol::TcpToSim(protocol::Hello{1, "control", "s3cret-Token_1", {}, std::nullopt}));
   ASSERT_TRUE(hello.ok());
   EXPECT_EQ(*hello, "HI,1,control,s3cret-Token_1,\n");
   Peer hub(server_->port());
@@ -226,6 +228,104 @@ TEST_F(AccessTest, TokenIsCheckedOnEveryConnection) {
   observer.send("HI,1,observe,s3cret-Token_1,\nOP,\n");
   EXPECT_EQ(observer.lines(3).substr(0, 30), "HI,1,scaratwin-sim,0.1.0,\nOP,8");
   EXPECT_EQ(cubes(), 1u);
+}
+
+// issue 13: a workcell's robots are driven by one hub each. A controlling hello that names its
+// robot (HI,1,control,-,<hash>,k,) is admitted while nobody drives that robot and nobody holds
+// the whole simulator; it commands that robot only (ER,18,4 for the other's commands and for
+// RS, which would move it), queries any; its robot is free again once it leaves.
+TEST(AccessWorkcell, EachRobotHasItsOwnController) {
+  test::TwoArmsServer cell;
+  ASSERT_NO_FATAL_FAILURE(test::start_two_arms_server(&cell));
+  const std::uint16_t port = cell.server->port();
+  World* w = cell.world.get();
+  auto d1 = [&](int robot) { return w->snapshot().robots.at(robot).joints[0]; };
+
+  Peer left(port);
+  left.send("HI,1,control,-,c6e454cc,0,\n");
+  EXPECT_EQ(left.lines(1).substr(0, 25), "HI,1,scaratwin-sim,0.1.0,");
+  testing::internal::CaptureStderr();
+  Peer right(port);
+  right.send("HI,1,control,-,c6e454cc,1,\n");
+  EXPECT_EQ(right.lines(1).substr(0, 25), "HI,1,scaratwin-sim,0.1.0,");
+
+  // each drives its own robot; the replies carry the robot's index
+  right.send("JD,4,0,80,10,0,0,1,\n");
+  EXPECT_EQ(right.lines(1).substr(0, 5), "JA,4,");
+  left.send("JD,5,0,90,20,0,0,\n");
+  const std::string ja = left.lines(1);
+  EXPECT_EQ(ja.substr(0, 5), "JA,5,") << ja;
+  EXPECT_EQ(std::count(ja.begin(), ja.end(), ','), 3) << "robot 0's JA has no index: " << ja;
+  EXPECT_NEAR(d1(0), 0.090, 1e-12);
+  EXPECT_NEAR(d1(1), 0.080, 1e-12);
+
+  // not the other's robot, not the whole scene; queries of any robot are answered
+  right.send("JD,6,0,50,0,0,0,\nMD,simulate,\nGR,1,\nSP,\nTW,homing,\nRS,\nQS,\nPI,2,\n");
+  const std::string refused = right.lines(8);
+  EXPECT_EQ(refused.substr(0, 57),
+            "ER,18,4,\nER,18,4,\nER,18,4,\nER,18,4,\nER,18,4,\nER,18,4,\nST,")
+      << refused;
+  EXPECT_NE(refused.find(",90,20,0,0,0,-1,mirror,\nAK,PI,2,\n"), std::string::npos) << refused;
+  left.send("JD,7,0,50,0,0,0,1,\nGR,1,1,\nQS,1,\n");
+  const std::string refused_left = left.lines(3);
+  EXPECT_EQ(refused_left.substr(0, 21), "ER,18,4,\nER,18,4,\nST,") << refused_left;
+  EXPECT_NE(refused_left.find(",80,10,0,0,0,-1,mirror,1,\n"), std::string::npos) << refused_left;
+  EXPECT_NEAR(d1(0), 0.090, 1e-12) << "nothing of a refused packet moved robot 0";
+  EXPECT_NEAR(d1(1), 0.080, 1e-12) << "nothing of a refused packet moved robot 1";
+  EXPECT_FALSE(w->snapshot().robots.at(0).gripper_closed);
+
+  // a third controller: robot 1 is driven, the whole simulator is not free, robot 2 is none
+  for (auto [hello, answer] :
+       {std::pair{"HI,1,control,-,c6e454cc,1,\n", "ER,18,2,\n"}, std::pair{"HI,1,\n", "ER,18,2,\n"},
+        std::pair{"JD,8,0,60,0,0,0,1,\n", "ER,18,2,\n"},
+        std::pair{"HI,1,control,-,c6e454cc,2,\n", "ER,19,2,\n"}}) {
+    Peer third(port);
+    third.send(hello);
+    EXPECT_EQ(third.lines(1), answer) << hello;
+    EXPECT_TRUE(third.closed_by_peer()) << hello;
+  }
+  EXPECT_NEAR(d1(1), 0.080, 1e-12);
+
+  // robot 1's hub leaves: the next hub of robot 1 is admitted
+  right.close();
+  std::string hello;
+  const auto end = std::chrono::steady_clock::now() + 5s;
+  std::unique_ptr<Peer> again;
+  while (std::chrono::steady_clock::now() < end) {
+    again = std::make_unique<Peer>(port);
+    again->send("HI,1,control,-,c6e454cc,1,\n");
+    hello = again->lines(1);
+    if (hello.rfind("HI,", 0) == 0) break;
+    std::this_thread::sleep_for(20ms);  // the first one's end may still be on its way
+  }
+  ASSERT_EQ(hello.substr(0, 25), "HI,1,scaratwin-sim,0.1.0,");
+  again->send("JD,9,0,70,0,0,0,1,\nHI,1,control,-,c6e454cc,0,\n");
+  const std::string r = again->lines(2);
+  EXPECT_EQ(r.substr(0, 5), "JA,9,") << r;
+  EXPECT_NE(r.find("\nER,18,4,\n"), std::string::npos)
+      << "a hello on its own connection does not make it robot 0's controller: " << r;
+  EXPECT_NEAR(d1(1), 0.070, 1e-12);
+  const std::string log = testing::internal::GetCapturedStderr();
+  EXPECT_NE(log.find("another client controls that robot"), std::string::npos) << log;
+}
+
+// The paper's single robot is a workcell of one: a hub naming robot 0 holds it like a hub that
+// names none; robot 1 is none.
+TEST_F(AccessTest, OneRobotSimulatorHasOneControllerWhateverItsHelloNames) {
+  start();
+  Peer hub(server_->port());
+  hub.send("HI,1,control,-,c6e454cc,0,\nRS,\n");
+  EXPECT_EQ(hub.lines(2).substr(0, 25), "HI,1,scaratwin-sim,0.1.0,");
+  for (auto [first, answer] :
+       {std::pair{"HI,1,control,-,c6e454cc,0,\n", "ER,18,2,\n"}, std::pair{"HI,1,\n", "ER,18,2,\n"},
+        std::pair{"HI,1,control,-,c6e454cc,1,\n", "ER,19,1,\n"}}) {
+    Peer other(server_->port());
+    other.send(first);
+    EXPECT_EQ(other.lines(1), answer) << first;
+    EXPECT_TRUE(other.closed_by_peer()) << first;
+  }
+  hub.send("PI,4,\n");
+  EXPECT_EQ(hub.lines(1), "AK,PI,4,\n");
 }
 
 TEST(Access, BadTokenIsRefusedAtStart) {

@@ -9,12 +9,12 @@
 #include <gtest/gtest.h>
 
 #include "scaratwin/config/robot_config.hpp"
-#include "scaratwin/config/workcell_config.hpp"
 #include "scaratwin/sim/camera.hpp"
 #include "scaratwin/sim/server.hpp"
 #include "scaratwin/sim/world.hpp"
 #include "scaratwin/transport/tcp.hpp"
 #include "scaratwin/vision/vision.hpp"
+#include "two_arms_server.hpp"
 
 namespace scaratwin::sim {
 namespace {
@@ -275,18 +275,10 @@ TEST_F(SimServerTest, APacketForARobotTheSimulatorDoesNotHaveIsRefused) {
 // robot whose index it carries, and its reply carries that index (none for robot 0); robot 2
 // is ER,19,2, (it has two) and nothing of it is applied.
 TEST(SimServerWorkcell, EachPacketGoesToTheRobotItNames) {
-  auto cell = load_workcell_config(std::filesystem::path(SCARATWIN_CONFIG_FILE).parent_path() /
-                                   "two_arms.toml");
-  ASSERT_TRUE(cell.ok()) << cell.error().message;
-  WorldOptions wo;
-  wo.camera = false;
-  auto w = World::create(*cell, {}, wo);
-  ASSERT_TRUE(w.ok()) << w.error().message;
-  ServerOptions o;
-  o.port = 0;
-  auto s = SimServer::create(**w, o);
-  ASSERT_TRUE(s.ok()) << s.error().message;
-  SimServer& server = **s;
+  test::TwoArmsServer cell;
+  ASSERT_NO_FATAL_FAILURE(test::start_two_arms_server(&cell));
+  SimServer& server = *cell.server;
+  World* w = cell.world.get();
 
   const std::string ja = server.handle_line("JD,4,0,80,10,0,0,1,");
   EXPECT_EQ(ja.rfind("JA,4,", 0), 0u) << ja;
@@ -297,7 +289,7 @@ TEST(SimServerWorkcell, EachPacketGoesToTheRobotItNames) {
   EXPECT_NE(st1.find(",80,10,0,0,0,-1,mirror,1,\n"), std::string::npos) << st1;
   std::string st0 = server.handle_line("QS,");
   EXPECT_NE(st0.find(",120,0,0,0,0,-1,mirror,\n"), std::string::npos) << st0;
-  const Snapshot snap = (*w)->snapshot();
+  const Snapshot snap = w->snapshot();
   ASSERT_EQ(snap.robots.size(), 2u);
   EXPECT_EQ(snap.robots[1].name, "right");
   EXPECT_NEAR(snap.robots[1].joints[0], 0.080, 1e-12);
@@ -419,7 +411,7 @@ TEST(SimServerStream, HelloAndModeSwitchStartANewStreamOfFrames) {
   std::vector<std::string> events;
   ServerOptions o;
   o.port = 0;
-  o.on_new_stream = [&events] { events.emplace_back("new"); };
+  o.on_new_stream = [&events](int robot) { events.push_back("new" + std::to_string(robot)); };
   o.on_joint_frame = [&events](const JointFrame& f) { events.push_back(std::to_string(f.seq)); };
   auto server = SimServer::create(**world, o);
   ASSERT_TRUE(server.ok());
@@ -431,7 +423,7 @@ TEST(SimServerStream, HelloAndModeSwitchStartANewStreamOfFrames) {
   EXPECT_EQ((*server)->handle_line("MD,mirror,"), "AK,MD,\n");
   EXPECT_EQ((*server)->handle_line("JD,900,0,80,0,0,0,").rfind("JA,900,", 0), 0u);
   EXPECT_EQ((*server)->handle_line("HI,2,"), "ER,13,1,\n");  // refused: no new stream
-  EXPECT_EQ(events, (std::vector<std::string>{"new", "5", "6", "new", "900"}));
+  EXPECT_EQ(events, (std::vector<std::string>{"new0", "5", "6", "new0", "900"}));
 }
 
 }  // namespace

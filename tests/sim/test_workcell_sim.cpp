@@ -8,6 +8,8 @@
 #include <cmath>
 #include <filesystem>
 #include <numbers>
+#include <optional>
+#include <utility>
 
 #include <gtest/gtest.h>
 
@@ -16,6 +18,7 @@
 #include "scaratwin/core/error_codes.hpp"
 #include "scaratwin/core/units.hpp"
 #include "scaratwin/kinematics/kinematics.hpp"
+#include "scaratwin/kinematics/workcell.hpp"
 #include "scaratwin/sim/simulation.hpp"
 
 namespace scaratwin::sim {
@@ -184,6 +187,67 @@ TEST_F(WorkcellSim, ARobotIndexItDoesNotHaveIsRefusedAndNothingMoves) {
 }
 
 // The paper's single robot is the workcell of one robot: the same model, index 0 only.
+// issue 13: the simulator's contacts between arms. The oracle is the planner's arm distance
+// seen from above (kinematics/workcell.hpp, from the link lengths, not from the MJCF): where it
+// is 0 the arms cross at the same height and MuJoCo must report a touch; where it is more than
+// both links' radii (18 mm each) and a margin, it must not. A touch counts once however long
+// it lasts; an arm folded onto its own column, or down at the table, is no touch.
+TEST_F(WorkcellSim, ArmsThatCrossTouchOnceAndOnlyThen) {
+  const JointVector home = sim_->robot(0).home;
+  // both shoulders turned: the left by a, the right by b (5 degree steps within the limits)
+  using Pair = std::pair<JointVector, JointVector>;
+  std::optional<Pair> cross, apart;
+  for (int a = -90; a <= 90; a += 5) {
+    for (int b = -90; b <= 90; b += 5) {
+      JointVector qa = home, qb = sim_->robot(1).home;
+      qa[1] = deg_to_rad(a);
+      qb[1] = deg_to_rad(b);
+      if (!sim_->robot(0).limits[1].contains(qa[1]) || !sim_->robot(1).limits[1].contains(qb[1])) {
+        continue;
+      }
+      const double d = arm_distance(cell_, 0, qa, 1, qb);
+      if (d == 0.0 && !cross) cross = Pair{qa, qb};
+      if (d > 0.06 && d < 0.08 && !apart) apart = Pair{qa, qb};
+    }
+  }
+  ASSERT_TRUE(cross && apart) << "two_arms.toml: no crossing or no near pose of the arms";
+
+  auto settle = [&](const Pair& q) {
+    ASSERT_TRUE(sim_->set_joints(q.first, 0).ok());
+    ASSERT_TRUE(sim_->set_joints(q.second, 1).ok());
+    ASSERT_TRUE(sim_->step(20).ok());
+  };
+  const Pair homes{home, sim_->robot(1).home};
+  settle(homes);
+  EXPECT_EQ(sim_->arm_contacts().count, 0) << "both at home";
+  EXPECT_EQ(sim_->arm_contacts().robot_a, -1);
+  settle(*apart);
+  EXPECT_EQ(sim_->arm_contacts().count, 0)
+      << "60..80 mm apart seen from above: q2 " << rad_to_deg(apart->first[1]) << " and "
+      << rad_to_deg(apart->second[1]);
+  const double before_s = sim_->time_s();
+  settle(*cross);
+  Simulation::ArmContacts c = sim_->arm_contacts();
+  EXPECT_EQ(c.count, 1) << "crossing: q2 " << rad_to_deg(cross->first[1]) << " and "
+                        << rad_to_deg(cross->second[1]);
+  EXPECT_EQ(c.robot_a, 0);
+  EXPECT_EQ(c.robot_b, 1);
+  EXPECT_GT(c.t_s, before_s);
+  ASSERT_TRUE(sim_->step(200).ok());
+  EXPECT_EQ(sim_->arm_contacts().count, 1) << "one touch however long it lasts";
+  settle(homes);
+  settle(*cross);
+  EXPECT_EQ(sim_->arm_contacts().count, 2) << "apart, then crossing again: a second touch";
+
+  // an arm against itself, its column or the table is no touch between arms
+  settle(homes);
+  JointVector folded = home;
+  folded[0] = sim_->robot(0).limits[0].min;
+  folded[2] = sim_->robot(0).limits[2].max;
+  settle(Pair{folded, sim_->robot(1).home});
+  EXPECT_EQ(sim_->arm_contacts().count, 2);
+}
+
 TEST(WorkcellSimSingle, OneRobotIsTheRobotsOwnSimulation) {
   auto robot = load_robot_config(SCARATWIN_CONFIG_FILE);
   ASSERT_TRUE(robot.ok());

@@ -65,7 +65,7 @@ TEST(Feed, StateMessageFollowsTheSimulation) {
   link.has_latency = true;
   link.latency_last_s = 0.0021;
   const json j =
-      json::parse(state_message(world->robot(), world->snapshot(), link, {true, 2, 1.0}));
+      json::parse(state_message(world->robot(), world->snapshot(), link, {true, 2, 1.0, {}}));
   EXPECT_EQ(j["type"], "state");
   EXPECT_NEAR(j["display"][0].get<double>(), 80.0, 1e-3);
   EXPECT_NEAR(j["display"][1].get<double>(), 0.5 * 180.0 / std::numbers::pi, 1e-3);
@@ -113,6 +113,25 @@ TEST(Feed, AWorkcellsStateCarriesEachRobot) {
   EXPECT_NEAR(j["robots"][1]["tool"]["z"].get<double>(), w[2], 1e-4);
   // the top-level fields are robot 0's
   EXPECT_NEAR(j["display"][0].get<double>(), 120.0, 1e-3);
+  EXPECT_EQ(j["arm_touches"], 0);
+  EXPECT_FALSE(j["robots"][0].contains("link")) << "no link figures given: none shown";
+
+  // each robot's link, as the simulator's monitors give them, in its row
+  StateExtras extras;
+  extras.robot_links.resize(2);
+  extras.robot_links[1].connected = true;
+  extras.robot_links[1].frames = 412;
+  extras.robot_links[1].lost = 3;
+  extras.robot_links[1].has_latency = true;
+  extras.robot_links[1].latency_mean_s = 0.00125;
+  const json k = json::parse(state_message((*world)->robot(), (*world)->snapshot(), {}, extras));
+  EXPECT_EQ(k["robots"][0]["link"]["connected"], false);
+  EXPECT_EQ(k["robots"][0]["link"]["frames"], 0);
+  EXPECT_FALSE(k["robots"][0]["link"].contains("latency_mean_ms"));
+  EXPECT_EQ(k["robots"][1]["link"]["connected"], true);
+  EXPECT_EQ(k["robots"][1]["link"]["frames"], 412);
+  EXPECT_EQ(k["robots"][1]["link"]["lost"], 3);
+  EXPECT_NEAR(k["robots"][1]["link"]["latency_mean_ms"].get<double>(), 1.25, 1e-9);
 }
 
 TEST(Feed, OutOfLimitJointIsFlagged) {

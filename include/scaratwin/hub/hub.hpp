@@ -206,6 +206,9 @@ class Hub {
   Result<int> spawn_cube(CubeColor color, double x_m, double y_m);
   Status reset_scene();
   Result<std::vector<protocol::ObjectPose>> objects();
+  // How often the arms of the simulator's workcell have touched so far (AC, docs/protocol.md
+  // section 11.3): the simulator's physics, not the robots'.
+  Result<protocol::ArmContacts> arm_contacts();
   Result<std::string> shoot(int width_px = 0, int height_px = 0);
   Result<transport::GripOutcome> sim_grasp(bool close);
   Result<protocol::SimState> sim_state();
@@ -236,9 +239,7 @@ class Hub {
   // The trajectory in progress must end (interrupted, or motion_abort_ says why). An abort
   // reason outlives its trajectory, for the error it returns, but ends no later wait: a
   // homing after a cut must not fail with the cut's reason. mu_ held.
-  bool motion_aborted() const {
-    return interrupted_ || (in_motion_ && !motion_abort_.empty());
-  }
+  bool motion_aborted() const { return interrupted_ || (in_motion_ && !motion_abort_.empty()); }
   bool sim_link_up() const {
     std::lock_guard<std::mutex> lock(mu_);
     return sim_up_;

@@ -263,12 +263,18 @@ constexpr Robot<M> robot(std::int32_t M::*m) {
 }
 
 // Fields whose wire form depends on the rest of the message, each written for its one
-// message (src/protocol/packet_codec.hpp): a hello's role and token (TCP only), a jog's
+// message (src/protocol/encode.cpp, decode.cpp): a hello's role and token and the robot it
+// names (TCP only), a jog's
 // delta (steps, or centidegrees for the wrist), a joint warning's value (mm for joint 1, else
 // degrees), a camera shot's optional size (both or neither), an image's byte count (the PNG
 // bytes follow the line).
 struct HelloAccess {
   static constexpr std::string_view kKinds = "tt";
+  static constexpr std::uint8_t kWhere = kOptional | kTcpOnly;
+};
+// the robot a controlling hello names (after its description hash, TCP only)
+struct HelloRobot {
+  static constexpr std::string_view kKinds = "i";
   static constexpr std::uint8_t kWhere = kOptional | kTcpOnly;
 };
 struct JogDelta {

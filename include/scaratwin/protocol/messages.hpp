@@ -42,11 +42,14 @@ using ErrorCode = core::ErrorCode;
 // the serial link. `description`: the hash of the robot description the hub runs on (8
 // lower-case hex digits, kinematics/robot_model.hpp description_hash()), or empty (a v1
 // hello); a peer answers a hello that carries one with its own (docs/protocol.md section 11).
+// `robot` (simulator link, after the description): the one robot of the simulator's workcell
+// a controlling hub drives; none: it controls the whole simulator (docs/security.md).
 struct Hello {
   std::int32_t version = kProtocolVersion;
-  std::string role;         // "", "control" or "observe"
-  std::string token;        // "" or [A-Za-z0-9_.-]{1,32}
-  std::string description;  // "" or 8 lower-case hex digits
+  std::string role;                   // "", "control" or "observe"
+  std::string token;                  // "" or [A-Za-z0-9_.-]{1,32}
+  std::string description;            // "" or 8 lower-case hex digits
+  std::optional<std::int32_t> robot;  // 0..255, TCP only, only with a description
 
   friend bool operator==(const Hello&, const Hello&) = default;
 
@@ -55,7 +58,7 @@ struct Hello {
   static constexpr auto fields() {
     using S = Hello;
     return std::tuple{field::i32(&S::version), field::HelloAccess{},
-                      field::description(&S::description)};
+                      field::description(&S::description), field::HelloRobot{}};
   }
 };
 // HI reply (simulator -> hub, device -> host).
@@ -554,15 +557,43 @@ struct JointWarning {
   }
 };
 
+// AC request: the contacts between the arms of the simulator's workcell so far.
+struct QueryContacts {
+  friend bool operator==(const QueryContacts&, const QueryContacts&) = default;
+
+  static constexpr std::string_view kCode = "AC";
+  static constexpr field::Reply kReply{"AC"};
+  static constexpr auto fields() { return std::tuple{}; }
+};
+// AC reply: how many times two arms have touched since the simulator started (a touch counts
+// once however long it lasts), and the last one's two robots (-1: none yet) and simulation
+// time.
+struct ArmContacts {
+  std::int32_t count = 0;
+  std::int32_t robot_a = -1;
+  std::int32_t robot_b = -1;
+  std::uint32_t t_us = 0;
+
+  friend bool operator==(const ArmContacts&, const ArmContacts&) = default;
+
+  static constexpr std::string_view kCode = "AC";
+  static constexpr auto fields() {
+    using S = ArmContacts;
+    return std::tuple{field::i32(&S::count, 0, 0x7fffffff), field::i32(&S::robot_a, -1, 255),
+                      field::i32(&S::robot_b, -1, 255), field::u32(&S::t_us)};
+  }
+};
+
 // --- what each receiver gets ---------------------------------------------------------------
 
 using SerialToDevice =
     std::variant<Hello, Ping, SetReportRate, QueryState, Home, TrajectoryBegin, TrajectoryPoint,
                  SetGripper, Jog, Stop, Config, RealtimeCommand>;
 using SerialFromDevice = std::variant<PeerHello, DeviceState, Ack, ErrorReply, DeviceEvent>;
-using TcpToSim = std::variant<Hello, Ping, JointData, JointTargets, SetMode, Grasp, CameraShoot,
-                              SpawnCube, ResetScene, QueryObjects, QueryState, Stop, SetTwinPhase>;
+using TcpToSim =
+    std::variant<Hello, Ping, JointData, JointTargets, SetMode, Grasp, CameraShoot, SpawnCube,
+                 ResetScene, QueryObjects, QueryState, Stop, SetTwinPhase, QueryContacts>;
 using TcpFromSim = std::variant<PeerHello, JointApplied, GripperState, Image, ObjectPose, SimState,
-                                JointWarning, Ack, ErrorReply>;
+                                JointWarning, ArmContacts, Ack, ErrorReply>;
 
 }  // namespace scaratwin::protocol

@@ -49,18 +49,19 @@ struct ServerOptions {
   // Access (docs/security.md). With a token, every connection must open with
   // `HI,1,control|observe,<token>,`; without one, anything but HTTP is admitted. One
   // controlling client at a time: a second one is refused (ER,18,2) unless it says
-  // `HI,1,observe,...`; an observer may only query (HI, PI, QS, OP). A connection whose first
-  // line is an HTTP request is closed unanswered and nothing of it runs.
+  // `HI,1,observe,...`, or, in a workcell, names in its hello a robot nobody drives (then it
+  // drives that robot only); an observer may only query (HI, PI, QS, OP, AC). A connection
+  // whose first line is an HTTP request is closed unanswered and nothing of it runs.
   std::string token;  // [A-Za-z0-9_.-]{1,32}, or empty
   // Called on the io thread after every joint frame the simulation accepted (may be empty).
   std::function<void(const JointFrame&)> on_joint_frame;
   // Called on the io thread when the hub says what the twin is doing (TW): "mirror",
   // "control", "prediction", or "" for none (may be empty).
   std::function<void(const std::string&)> on_twin_phase;
-  // Called on the io thread when the joint frames that follow are a new stream, whose
-  // sequence numbers do not continue the last one's: a hub's hello (HI, the first packet of a
-  // connection) or a mode switch (MD) (may be empty).
-  std::function<void()> on_new_stream;
+  // Called on the io thread when robot `robot`'s joint frames that follow are a new stream,
+  // whose sequence numbers do not continue the last one's: a hub's hello (HI, the first packet
+  // of a connection: for every robot it drives) or a mode switch (MD) (may be empty).
+  std::function<void(int robot)> on_new_stream;
 };
 
 struct ServerCounters {
@@ -81,6 +82,9 @@ class SimServer {
 
   std::uint16_t port() const;
   bool peer_connected() const;
+  // A controlling client drives robot `robot` (the whole simulator's, or that robot's own).
+  // Any thread.
+  bool robot_controlled(int robot) const;
   ServerCounters counters() const;
 
   // Handles one received line (without '\n') and returns the reply bytes: what the io thread

@@ -219,22 +219,40 @@ class Simulation {
   ToolPose tool_pose(int robot = 0) const;         // of the `tool` site (yaw from its x axis)
   std::array<double, 3> tool_site_pos(int robot = 0) const;
   std::vector<ToolPoint> tool_path(int robot = 0) const;
+  // Touches between the arms of different robots. In a workcell of more than one robot each
+  // arm collides with the other robots' arms (its column and links, not its gripper's pads),
+  // never with its own or with the table and the cubes; a touch is counted once however many
+  // steps it lasts.
+  struct ArmContacts {
+    int count = 0;     // touches so far
+    int robot_a = -1;  // the last one's robots (a < b), -1 before any
+    int robot_b = -1;
+    double t_s = 0.0;  // and its simulation time
+  };
+  ArmContacts arm_contacts() const { return arm_contacts_; }
   // Joint-limit warnings of every robot (JointWarning::robot), the latest warnings_kept.
   const std::deque<JointWarning>& recent_warnings() const { return warnings_; }
-  // Off while the robots home (a robot passes its soft limits on the way to its endstops, by
-  // design): joints beyond their limits are then not warnings. On by default. A joint that
-  // stays beyond its limit frame after frame is one warning, the next one when it leaves its
-  // limits again (turning the warnings on starts afresh).
-  void set_limit_warnings(bool on) {
-    if (on && !limit_warnings_) restart_outside();
-    limit_warnings_ = on;
+  // Off while a robot homes (it passes its soft limits on the way to its endstops, by
+  // design): its joints beyond their limits are then not warnings. On by default, per robot.
+  // A joint that stays beyond its limit frame after frame is one warning, the next one when it
+  // leaves its limits again (turning the warnings on starts afresh).
+  void set_limit_warnings(bool on, int robot = 0) {
+    Arm& a = arm(robot);
+    if (on && !a.limit_warnings) a.outside = {};
+    a.limit_warnings = on;
   }
-  // On, afresh: every joint beyond its limits at its next note is a warning (a new hub).
+  // On, afresh: every joint of the robot beyond its limits at its next note is a warning (a
+  // new hub of that robot).
+  void restart_limit_warnings(int robot) {
+    Arm& a = arm(robot);
+    a.limit_warnings = true;
+    a.outside = {};
+  }
+  // The same for every robot (a new hub of the whole simulator).
   void restart_limit_warnings() {
-    limit_warnings_ = true;
-    restart_outside();
+    for (int r = 0; r < robot_count(); ++r) restart_limit_warnings(r);
   }
-  bool limit_warnings() const { return limit_warnings_; }
+  bool limit_warnings(int robot = 0) const { return arm(robot).limit_warnings; }
   std::uint64_t warnings_total() const { return warnings_total_; }
   // Robot `robot`'s description (robot 0: the paper's robot; its scene is the workcell's).
   const RobotModel& robot(int robot = 0) const { return arm(robot).robot; }
@@ -287,6 +305,7 @@ class Simulation {
     std::deque<ToolPoint> path;
     double next_path_s = 0.0;
     std::array<bool, kNumJoints> outside{};  // each joint beyond its limits at its last note
+    bool limit_warnings = true;              // off while it homes
   };
 
   Simulation() = default;
@@ -300,12 +319,11 @@ class Simulation {
   void record_tool_path(Arm& a);
   void set_fingers(Arm& a, bool closed);
   void carry_held_cube(Arm& a);
-  void restart_outside() {
-    for (Arm& a : arms_) a.outside = {};
-  }
   std::vector<JointWarning> note_limits(int robot, const JointVector& q);
   JointWarning push_warning(int robot, int joint, double value);
   int holder_of(int cube_id) const;  // the robot holding the cube, or -1
+  void setup_arm_collisions();
+  void note_arm_contacts();
   bool cube_active(int id) const { return active_[id]; }
   Status forward();
 
@@ -325,7 +343,9 @@ class Simulation {
   bool pattern_shown_ = false;
 
   std::deque<JointWarning> warnings_;
-  bool limit_warnings_ = true;
+  std::vector<int> geom_robot_;  // per geom: the robot whose arm it is (-1: none), >1 robot
+  std::vector<char> touching_;   // per pair of robots (a * n + b): touching at the last step
+  ArmContacts arm_contacts_;
   std::uint64_t warnings_total_ = 0;
 };
 

@@ -71,6 +71,7 @@ struct Snapshot {
   double real_time_factor = 0.0;  // measured over the last second of stepping
   bool paused = false;
   std::vector<RobotSnapshot> robots;
+  int arm_touches = 0;  // times two arms touched (a workcell of several robots)
 };
 
 // Static shapes of the scene for a 3D view. Geom poses are relative to their body.

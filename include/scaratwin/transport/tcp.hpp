@@ -5,8 +5,9 @@
 // that doubles from reconnect_min up to reconnect_max; the server keeps accepting. Without an
 // admission function a new peer replaces the current one; with one (TcpServerOptions::admit)
 // each new connection is judged on its first line before anything of it is delivered: it
-// becomes the controlling peer, an observer (served apart, through `observe`), or is refused
-// with a reply and closed.
+// becomes the controlling peer, an observer (served apart, through `observe`), a connection
+// served apart by a handler of its own (`serve` of the decision: e.g. a second controller that
+// drives another robot of the simulator), or is refused with a reply and closed.
 #pragma once
 
 #include <cstdint>
@@ -47,11 +48,19 @@ class TcpClient : public Link {
 enum class Admission {
   kControl,  // the link's peer: its packets go to the link's handler or queue
   kObserve,  // served apart: each of its frames goes to TcpServerOptions::observe
+  kServe,    // served apart: each of its frames goes to the decision's `serve`
   kRefuse,   // `reply` is written, then the connection is closed; nothing of it is delivered
 };
+// One frame of a connection served apart (its first line included) -> the bytes to answer.
+// Runs on the io thread.
+using ServeFn = std::function<std::string(const Frame& frame)>;
 struct AdmissionDecision {
   Admission admission = Admission::kControl;
   std::string reply;  // kRefuse only
+  ServeFn serve;      // kServe only: answers the connection's frames, in order, one at a time
+  // kServe only: called once on the io thread when the connection has ended (closed by its
+  // peer, an I/O error, or the server closing); also when it could not be served at all
+  std::function<void()> closed;
 };
 // Judges a connection on its first line (without '\n'; cut at the line limit, or what came
 // before first_line_timeout passed: then `complete` is false). A connection that ends before
@@ -62,7 +71,7 @@ using AdmitFn = std::function<AdmissionDecision(std::string_view first_line, boo
                                                 const std::string& peer, bool controller)>;
 // One frame of an observer connection (its first line included) -> the bytes to answer.
 // Runs on the io thread.
-using ObserveFn = std::function<std::string(const Frame& frame)>;
+using ObserveFn = ServeFn;
 
 struct TcpServerOptions {
   std::string bind_address = kDefaultTcpHost;  // "0.0.0.0" to listen on every interface

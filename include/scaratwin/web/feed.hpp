@@ -43,6 +43,8 @@ struct StateExtras {
   bool with_path = false;    // include the tool path (sent every few frames)
   std::size_t clients = 0;   // browsers connected
   double world_speed = 1.0;  // WorldOptions::speed (0: prediction runs)
+  // a workcell's: each robot's link (index = robot; missing: not shown)
+  std::vector<LinkStatus> robot_links;
 };
 // The "state" message.
 std::string state_message(const RobotModel& robot, const sim::Snapshot& snapshot,

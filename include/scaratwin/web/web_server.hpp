@@ -40,6 +40,8 @@ struct WebOptions {
   // The fleet page's data (/api/fleet: JSON, e.g. fleet::FleetWatcher::snapshot_json); empty:
   // this server watches no fleet and /api/fleet answers 404 saying so.
   std::function<std::string()> fleet;
+  // A workcell's: each robot's link figures, robot 0 first (empty: only the link panel's).
+  std::function<std::vector<LinkStatus>()> robot_links;
 };
 
 // Link figures for the feed; returns an empty status when the simulator has no link data.

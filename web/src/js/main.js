@@ -94,7 +94,11 @@ function updateRobots(state) {
   const rows = robots.map((r) => {
     const j = r.display.map((v) => v.toFixed(1)).map((v) => `<td>${v}</td>`).join('');
     const grip = r.gripper.closed ? (r.gripper.held >= 0 ? `#${r.gripper.held}` : 'closed') : 'open';
-    return `<tr data-robot="${r.name}"><td>${r.name}</td><td>${r.mode}</td>${j}<td>${grip}</td></tr>`;
+    // its hub's link: up or down, frames lost, mean latency over the last second
+    const l = r.link;
+    const link = l ? `<td>${l.connected ? `${l.rate_hz.toFixed(0)}/s` : 'down'}</td><td>${l.lost}</td>` +
+      `<td>${l.latency_mean_ms !== undefined ? l.latency_mean_ms.toFixed(2) : '—'}</td>` : '<td>—</td><td>—</td><td>—</td>';
+    return `<tr data-robot="${r.name}"><td>${r.name}</td><td>${r.mode}</td>${j}<td>${grip}</td>${link}</tr>`;
   }).join('');
   const tbody = $('robot-list');
   if (tbody.dataset.html !== rows) {
@@ -102,6 +106,9 @@ function updateRobots(state) {
     tbody.dataset.html = rows;
   }
   $('robot-count').textContent = robots.length;
+  const touches = state.arm_touches || 0;
+  $('arm-touches').textContent = touches === 0 ? 'arms never touched' : `arms touched ${touches}×`;
+  $('arm-touches').classList.toggle('alarm', touches > 0);
 }
 
 // --- data area 2: cubes -----------------------------------------------------------------------
