@@ -135,8 +135,8 @@ Result<WorkcellPlan> plan_workcell_sort(const Workcell& w, const std::vector<Wor
     }
   };
 
-  for (int i = 0; i < static_cast<int>(tasks.size()); ++i) {
-    const int r = plan.robot_of_task[i];
+  // Plans task i for robot r from where r is and schedules it.
+  const auto plan_for = [&](int i, int r) -> Status {
     const RobotModel& m = w.robots[r].model;
     PickPlaceRequest req = o.pick_place;
     auto pick = in_base(w, r, tasks[i].pick_W, q[r]);
@@ -148,6 +148,14 @@ Result<WorkcellPlan> plan_workcell_sort(const Workcell& w, const std::vector<Wor
     req.pick = *pick;
     req.place = *place;
     auto traj = plan_pick_place(m, q[r], req);
+    if (traj && o.home_after_each) {
+      auto home = plan_quintic(m, traj->samples.back().q, m.home);
+      if (!home) {
+        traj = home.error();
+      } else {
+        append(*traj, *home);
+      }
+    }
     if (!traj) {
       return Error{traj.error().code, fmt::format("{} (robot '{}'): {}", tasks[i].what,
                                                   w.robots[r].name, traj.error().message)};
@@ -156,6 +164,26 @@ Result<WorkcellPlan> plan_workcell_sort(const Workcell& w, const std::vector<Wor
     if (!s) return s.error();
     q[r] = traj->samples.back().q;
     plan.tasks.push_back(PlannedTask{i, r, *s, std::move(*traj)});
+    return Ok{};
+  };
+
+  for (int i = 0; i < static_cast<int>(tasks.size()); ++i) {
+    // its robot; when that one cannot start it within the most delay (an arm stands in its
+    // way), the next robot that reaches it, in the workcell's order
+    const int first = plan.robot_of_task[i];
+    Status done = plan_for(i, first);
+    const bool blocked = !done && done.error().code == static_cast<int>(PlanError::kCollision);
+    bool taken = false;
+    for (int r = 0; blocked && !taken && r < n; ++r) {
+      if (r == first || !reaches(w, r, tasks[i].pick_W) || !reaches(w, r, tasks[i].place_W)) {
+        continue;
+      }
+      if (plan_for(i, r).ok()) {
+        plan.robot_of_task[i] = r;
+        taken = true;
+      }
+    }
+    if (!done && !taken) return done.error();
   }
   // every robot that moved goes home at the end, scheduled the same way
   for (int r = 0; r < n; ++r) {

@@ -144,6 +144,68 @@ TEST(WorkcellPlan, AnArmStandingInTheWayIsRefusedAfterTheMostDelay) {
   EXPECT_EQ(bad.error().code, static_cast<int>(PlanError::kBadArgument));
 }
 
+// config/two_arms_trays.toml's layout (the two-arm demo's): "right" at (310, -230) mm turned
+// -150 deg, its shoulder at (252, -263.5) mm.
+Workcell two_arms_trays() { return test::two_robots(310.0, -230.0, -150.0); }
+
+// With home_after_each every task ends at its robot's home, so an arm waiting for its next task
+// stands at home: the demo's layout (its shoulders' reach worked out by hand: the red and the
+// blue cube only left's, the green one only right's) keeps 70 mm everywhere.
+TEST(WorkcellPlan, EachTaskEndsAtHomeWhenAsked) {
+  const Workcell w = two_arms_trays();
+  const std::vector<WorkcellTask> tasks = {task("red cube 0", 91, 149, 130, -136),
+                                           task("green cube 0", 146, -233, 182, -96),
+                                           task("blue cube 0", 98, 89, 212, -39)};
+  WorkcellPlanOptions o;
+  o.home_after_each = true;
+  o.clearance.clearance_m = 0.070;
+  auto plan = plan_workcell_sort(w, tasks, {paper_robot().home, paper_robot().home}, o);
+  ASSERT_TRUE(plan.ok()) << plan.error().message;
+  EXPECT_EQ(plan->robot_of_task, (std::vector<int>{0, 1, 0}));
+  expect_plan_keeps_its_promises(w, tasks, *plan, o.clearance.clearance_m);
+  for (const PlannedTask& pt : plan->tasks) {
+    const JointVector end =
+        sample_at(plan->timeline[pt.robot], pt.start_s + pt.trajectory.duration_s());
+    for (int j = 0; j < kNumJoints; ++j) {
+      EXPECT_NEAR(end[j], paper_robot().home[j], 1e-9) << tasks[pt.task].what << " joint " << j;
+    }
+  }
+  // without it, left stands over the red tray after its first task and the green one cannot
+  // be started by right (which alone reaches it) within the most delay
+  o.home_after_each = false;
+  o.max_delay_s = 10.0;
+  auto without = plan_workcell_sort(w, tasks, {paper_robot().home, paper_robot().home}, o);
+  ASSERT_FALSE(without.ok());
+  EXPECT_EQ(without.error().code, static_cast<int>(PlanError::kCollision));
+  EXPECT_EQ(
+      without.error().message.rfind("green cube 0 (robot 'right'): no start within 10.0 s", 0), 0u)
+      << without.error().message;
+}
+
+// A task whose robot cannot start it within the most delay goes to the next robot that reaches
+// it: right stands over the shared pick (its start, with nothing to do), so left (assigned:
+// fewer tasks, nearer base) never gets there; right, which reaches the pick and the red tray,
+// takes it. Without the fallback the plan was refused (kCollision).
+TEST(WorkcellPlan, ATaskItsRobotCannotStartGoesToAnotherThatReachesIt) {
+  const Workcell w = two_arms_trays();
+  const WorkcellTask shared = task("red cube 0", 150, -120, 130, -136);
+  const auto in_right = world_to_base(w.robots[1].base, {0.150, -0.120, -0.02});
+  auto standing = inverse(paper_robot(), ToolPose{in_right[0], in_right[1], in_right[2], 0.0},
+                          paper_robot().home);
+  ASSERT_TRUE(standing.ok()) << standing.error().message;
+  WorkcellPlanOptions o;
+  o.max_delay_s = 1.0;
+  auto plan = plan_workcell_sort(w, {shared}, {paper_robot().home, *standing}, o);
+  ASSERT_TRUE(plan.ok()) << plan.error().message;
+  EXPECT_EQ(plan->robot_of_task, std::vector<int>{1});
+  ASSERT_EQ(plan->tasks.size(), 1u);
+  EXPECT_EQ(plan->tasks[0].robot, 1);
+  expect_plan_keeps_its_promises(w, {shared}, *plan, o.clearance.clearance_m);
+  auto assigned = assign_by_reach(w, {shared});
+  ASSERT_TRUE(assigned.ok());
+  EXPECT_EQ(*assigned, std::vector<int>{0}) << "left was the robot it was assigned";
+}
+
 TEST(WorkcellPlan, RefusesWhatNoRobotReachesAndABadStart) {
   const Workcell w = two_arms();
   auto far = plan_workcell_sort(w, {task("blue cube 2", 600, -300, 150, -80)},

@@ -27,6 +27,9 @@ struct WorkcellPlanOptions {
   ClearanceOptions clearance;
   double delay_step_s = 0.1;   // a task that would come too close waits in steps of this
   double max_delay_s = 120.0;  // after which it is refused (PlanError::kCollision)
+  // Each robot goes home after each of its tasks, so that an arm waiting for its next task
+  // stands where the workcell keeps the arms apart, not over a tray the other arm needs.
+  bool home_after_each = false;
 };
 
 // One planned pick-and-place of one robot.
@@ -53,12 +56,15 @@ struct WorkcellPlan {
 Result<std::vector<int>> assign_by_reach(const Workcell& workcell,
                                          const std::vector<WorkcellTask>& tasks);
 
-// Assigns, plans each robot's pick-and-places in the tasks' order from `start[robot]`, and
-// schedules them: each task starts when its robot is free, later when another arm's motion
-// (as already scheduled) would come too close, by `delay_step_s` at a time. Errors: those of
-// assign_by_reach and of the pick-and-place planner (naming the task), PlanError::kCollision
-// when a task cannot start within `max_delay_s` (an arm stands in its way), kBadArgument for
-// a start count that is not the workcell's. The returned timelines keep the clearance.
+// Assigns, plans each robot's pick-and-places in the tasks' order from `start[robot]` (each
+// followed by its way home with `home_after_each`), and schedules them: each task starts when
+// its robot is free, later when another arm's motion (as already scheduled) would come too
+// close, by `delay_step_s` at a time. A task its robot cannot start within `max_delay_s` (an
+// arm stands in its way) goes to the next robot that reaches it, in the workcell's order
+// (robot_of_task says who took it). Errors: those of assign_by_reach and of the pick-and-place
+// planner (naming the task), PlanError::kCollision when no robot that reaches a task can start
+// it within `max_delay_s` (the error of the robot it was assigned), kBadArgument for a start
+// count that is not the workcell's. The returned timelines keep the clearance.
 Result<WorkcellPlan> plan_workcell_sort(const Workcell& workcell,
                                         const std::vector<WorkcellTask>& tasks,
                                         const std::vector<JointVector>& start,
