@@ -638,14 +638,9 @@ int run_bench_paper(const CommonOptions& common, const BenchArgs& a) {
     return kExitUsage;
   }
   namespace fs = std::filesystem;
-  std::error_code ec;
-  fs::create_directories(a.out, ec);
-  if (ec) {
-    std::fprintf(stderr, "scaratwin bench paper: cannot create --out '%s': %s\n", a.out.c_str(),
-                 ec.message().c_str());
-    return kExitUsage;
-  }
-  const fs::path out = fs::absolute(a.out);
+  const auto out_dir = create_out_dir(a.out, "bench paper");
+  if (!out_dir) return kExitUsage;
+  const fs::path& out = *out_dir;
   auto db = TwinDb::open(out / "bench.db");
   if (!db) {
     std::fprintf(stderr, "scaratwin bench paper: %s\n", db.error().message.c_str());

@@ -50,13 +50,7 @@ int run_calibrate(const CommonOptions& common, const CalibrateArgs& a) {
   const fs::path base =
       common.config_path.empty() ? default_robot_config_path() : fs::path(common.config_path);
   const fs::path overlay = a.output.empty() ? default_overlay_path(base) : fs::path(a.output);
-  std::error_code ec;
-  fs::create_directories(a.out, ec);
-  if (ec) {
-    std::fprintf(stderr, "scaratwin calibrate: cannot create --out '%s': %s\n", a.out.c_str(),
-                 ec.message().c_str());
-    return kExitUsage;
-  }
+  if (!create_out_dir(a.out, "calibrate")) return kExitUsage;
   if (!fs::exists(fs::absolute(overlay).parent_path())) {
     std::fprintf(stderr, "scaratwin calibrate: --output '%s': no such folder\n",
                  overlay.string().c_str());

@@ -29,6 +29,7 @@
 
 #include "calibrate_step.hpp"
 #include "commands.hpp"
+#include "demo_cell.hpp"
 #include "demo_figures.hpp"
 #include "demo_ticker.hpp"
 #include "emulator_side.hpp"
@@ -64,7 +65,10 @@ struct DemoArgs {
   long long as_built_seed = -1;  // the emulated robot's build (-1: the description's)
   std::string mqtt;              // publish the demo's state on this broker (docs/fleet.md)
   bool mqtt_given = false;       // --mqtt without a URL: start a Mosquitto of our own
+  bool calibrate_given = false;  // --calibrate or --no-calibrate said
   long long layout_seed = -1;    // cubes at random spots of the workspace (-1: --seed's layout)
+  int robots = 1;                // more: the robots of a workcell share the table (demo_cell.hpp)
+  std::string workcell;          // their workcell file (default config/two_arms_trays.toml)
   // set by run_demo
   std::string base_config;
   std::filesystem::path out_dir;
@@ -491,17 +495,32 @@ Result<DemoOutcome> run_phases(Hub& hub, TwinDb& db, const DemoArgs& a, std::int
 }
 
 int run_demo(const CommonOptions& common, const DemoArgs& a) {
+  if (a.robots > 1 || !a.workcell.empty()) {
+    if (!a.serial.empty() || a.calibrate_given || a.as_built_seed >= 0 || a.mqtt_given ||
+        a.layout_seed >= 0 || !common.config_path.empty()) {
+      std::fprintf(stderr,
+                   "scaratwin demo: --robots/--workcell runs the workcell's emulated robots; "
+                   "--serial, --calibrate, --as-built-seed, --mqtt, --layout-seed and --config "
+                   "are for the single robot\n");
+      return kExitUsage;
+    }
+    CellDemoOptions c;
+    c.robots = a.robots;
+    c.workcell = a.workcell;
+    c.out = a.out;
+    c.http_port = a.http_port;
+    c.robot_speed = a.robot_speed;
+    c.seed = a.seed;
+    c.cubes = a.cubes;
+    c.keep_open = a.keep_open;
+    return run_cell_demo(c);
+  }
   auto model = load_model(common);
   if (!model) return kExitUsage;
   namespace fs = std::filesystem;
-  std::error_code ec;
-  fs::create_directories(a.out, ec);
-  if (ec) {
-    std::fprintf(stderr, "scaratwin demo: cannot create --out '%s': %s\n", a.out.c_str(),
-                 ec.message().c_str());
-    return kExitUsage;
-  }
-  const fs::path out = fs::absolute(a.out);
+  const auto out_dir = create_out_dir(a.out, "demo");
+  if (!out_dir) return kExitUsage;
+  const fs::path& out = *out_dir;
   // --mqtt with no URL: the demo starts its own broker (Mosquitto on a free loopback port)
   fleet::LocalBroker own_broker;
   std::string mqtt = a.mqtt;
@@ -652,10 +671,11 @@ void add_demo_command(CLI::App& app, CommonOptions& common, Runner& run) {
                   "cubes to sort (red, then green, then blue); --cubes 1 is the short demo")
       ->check(CLI::Range(1, kNumColors))
       ->capture_default_str();
-  cmd->add_flag("--calibrate,!--no-calibrate", a->calibrate,
-                "calibrate after homing (the default with the emulated robot as built): the twin "
-                "measures the robot and runs on the calibrated description "
-                "(docs/calibration.md); --no-calibrate runs on the description as it is");
+  CLI::Option* calibrate = cmd->add_flag(
+      "--calibrate,!--no-calibrate", a->calibrate,
+      "calibrate after homing (the default with the emulated robot as built): the twin "
+      "measures the robot and runs on the calibrated description "
+      "(docs/calibration.md); --no-calibrate runs on the description as it is");
   cmd->add_option("--as-built-seed", a->as_built_seed,
                   "emulated robot: the seed of its build (default: the description's)")
       ->check(CLI::Range(0LL, 2147483647LL));
@@ -663,6 +683,15 @@ void add_demo_command(CLI::App& app, CommonOptions& common, Runner& run) {
                   "put the cubes at random reachable, non-overlapping spots of the workspace drawn "
                   "from this seed (default: --seed's spots on the free side of the table)")
       ->check(CLI::Range(0LL, 2147483647LL));
+  cmd->add_option(
+         "--robots", a->robots,
+         "robots on the table: 2 runs the two emulated arms of config/two_arms_trays.toml (or "
+         "--workcell), which sort the cubes together (docs/workcell.md)")
+      ->check(CLI::Range(1, 8))
+      ->capture_default_str();
+  cmd->add_option("--workcell", a->workcell,
+                  "the workcell file of --robots (its robots, base poses and scene)")
+      ->check(CLI::ExistingFile);
   CLI::Option* mqtt =
       cmd->add_option("--mqtt", a->mqtt,
                       "publish the robot's state on this MQTT broker, "
@@ -671,8 +700,9 @@ void add_demo_command(CLI::App& app, CommonOptions& common, Runner& run) {
                       "(docs/fleet.md)")
           ->expected(0, 1);
   add_common_options(*cmd, common, false);
-  cmd->callback([&common, &run, a, mqtt] {
+  cmd->callback([&common, &run, a, mqtt, calibrate] {
     a->mqtt_given = mqtt->count() > 0;
+    a->calibrate_given = calibrate->count() > 0;
     run = [&common, a] { return run_demo(common, *a); };
   });
 }

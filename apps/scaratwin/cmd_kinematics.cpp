@@ -28,6 +28,17 @@ std::optional<RobotModel> load_model(const CommonOptions& common) {
   return *model;
 }
 
+std::optional<std::filesystem::path> create_out_dir(const std::string& dir, const char* command) {
+  std::error_code ec;
+  std::filesystem::create_directories(dir, ec);
+  if (ec) {
+    std::fprintf(stderr, "scaratwin %s: cannot create --out '%s': %s\n", command, dir.c_str(),
+                 ec.message().c_str());
+    return std::nullopt;
+  }
+  return std::filesystem::absolute(dir);
+}
+
 std::optional<JointVector> joints_from_edge(const std::vector<double>& v, const char* what) {
   if (v.size() != 4) {
     std::fprintf(stderr, "scaratwin: %s needs 4 values D1_M Q2_DEG Q3_DEG Q4_DEG, got %zu\n", what,

@@ -2,7 +2,9 @@
 // returns the process exit code when run.
 #pragma once
 
+#include <filesystem>
 #include <functional>
+#include <optional>
 #include <string>
 
 #include <CLI/CLI.hpp>
@@ -48,6 +50,10 @@ void add_common_options(CLI::App& cmd, CommonOptions& common, bool with_json = t
 
 // Loads the robot description; prints the error and returns nullopt on failure.
 std::optional<RobotModel> load_model(const CommonOptions& common);
+
+// Creates a command's output folder `dir` (and its parents); its absolute path, or nullopt
+// after printing "scaratwin COMMAND: cannot create --out ...".
+std::optional<std::filesystem::path> create_out_dir(const std::string& dir, const char* command);
 
 // Parses "d1_m,q2_deg,q3_deg,q4_deg" into SI joints; prints the error on failure.
 std::optional<JointVector> joints_from_edge(const std::vector<double>& values, const char* what);

@@ -1,7 +1,7 @@
 #include "demo_figures.hpp"
 
-#include <cmath>
 #include <algorithm>
+#include <cmath>
 #include <fstream>
 #include <map>
 
@@ -54,7 +54,8 @@ Status write_results(const std::filesystem::path& path, const std::string& plant
   if (o.calibration) {
     const CalibrationFigures& c = *o.calibration;
     auto stats = [](const ToolErrorStats& e) {
-      return json{{"mean", m_to_mm(e.mean_m)}, {"p95", m_to_mm(e.p95_m)}, {"max", m_to_mm(e.max_m)}};
+      return json{
+          {"mean", m_to_mm(e.mean_m)}, {"p95", m_to_mm(e.p95_m)}, {"max", m_to_mm(e.max_m)}};
     };
     json params = json::object();
     for (const CalibrationParameter& p : c.parameters) {
@@ -63,11 +64,10 @@ Status write_results(const std::filesystem::path& path, const std::string& plant
                            {"true", std::isnan(p.truth) ? json(nullptr) : json(p.truth)},
                            {"drawn", std::isnan(p.drawn) ? json(nullptr) : json(p.drawn)}};
     }
-    j["calibration"] = json{{"before_mm", stats(c.before)}, {"after_mm", stats(c.after)},
-                            {"test_poses", c.test_poses}, {"fit_poses", c.fit_poses},
-                            {"robot_s", c.robot_s},       {"fit_s", c.fit_s},
-                            {"pixel_rms", c.pixel_rms},   {"overlay", c.overlay},
-                            {"parameters", params}};
+    j["calibration"] = json{
+        {"before_mm", stats(c.before)}, {"after_mm", stats(c.after)}, {"test_poses", c.test_poses},
+        {"fit_poses", c.fit_poses},     {"robot_s", c.robot_s},       {"fit_s", c.fit_s},
+        {"pixel_rms", c.pixel_rms},     {"overlay", c.overlay},       {"parameters", params}};
   }
   j["virtual_vs_physical_tool_mm"] = o.virt_phys_along.count == 0
                                          ? json(nullptr)

@@ -1,0 +1,427 @@
+// scaratwin demo --robots N: the robots of a workcell (config/two_arms_trays.toml) share one table
+// in one simulator. Each robot is our firmware in the AVR emulator with a hub of its own, which
+// names its robot in its hello (docs/protocol.md section 11.3) and mirrors it live. The cubes
+// are split between the robots by reach and scheduled so that the arms keep their clearance on
+// the planned paths (trajectory/workcell_plan.hpp) before anything moves; while they run, the
+// simulator's contacts between the arms are watched, and a touch stops every robot.
+#include "demo_cell.hpp"
+
+#include <atomic>
+#include <chrono>
+#include <csignal>
+#include <cstdio>
+#include <fstream>
+#include <memory>
+#include <thread>
+#include <vector>
+
+#include <fmt/format.h>
+
+#include <nlohmann/json.hpp>
+
+#include "scaratwin/config/robot_config.hpp"
+#include "scaratwin/config/workcell_config.hpp"
+#include "scaratwin/core/units.hpp"
+#include "scaratwin/hub/hub.hpp"
+#include "scaratwin/hub/process.hpp"
+#include "scaratwin/hub/report.hpp"
+#include "scaratwin/hub/robot_interface.hpp"
+#include "scaratwin/hub/tasks.hpp"
+#include "scaratwin/kinematics/workcell.hpp"
+#include "scaratwin/trajectory/workcell_plan.hpp"
+
+namespace scaratwin::cli {
+namespace {
+
+using namespace std::chrono_literals;
+namespace fs = std::filesystem;
+
+// The planner keeps the arms' centre lines apart (trajectory/clearance.hpp); an arm is wider:
+// its gripper's body reaches about 30 mm either side of the line (src/sim/mjcf.cpp). Apart by
+// twice that and 10 mm more, two arms do not touch.
+constexpr double kArmHalfWidthM = 0.030;
+constexpr double kClearanceM = 2 * kArmHalfWidthM + 0.010;
+
+std::atomic<bool> g_interrupted{false};
+void on_interrupt(int) { g_interrupted = true; }
+
+// One robot of the demo: its description with the scene in its base frame, its database and
+// its hub.
+struct Arm {
+  std::string name;
+  RobotModel model;
+  std::unique_ptr<TwinDb> db;
+  std::unique_ptr<Hub> hub;
+  std::int64_t run = 0;
+  int tasks = 0;
+  std::string error;  // what ended its motion early
+};
+
+// The shortest distance (m) from p to the segment a-b, in the table's plane.
+double to_segment(const std::array<double, 3>& p, const std::array<double, 3>& a,
+                  const std::array<double, 3>& b) {
+  const double dx = b[0] - a[0], dy = b[1] - a[1];
+  const double len2 = dx * dx + dy * dy;
+  double t = len2 > 0 ? ((p[0] - a[0]) * dx + (p[1] - a[1]) * dy) / len2 : 0.0;
+  t = std::clamp(t, 0.0, 1.0);
+  return std::hypot(p[0] - (a[0] + t * dx), p[1] - (a[1] + t * dy));
+}
+
+// Cube spots in W: cube k is drawn from robot (k mod n)'s workspace (tasks::random_layout in
+// its base frame), kept apart from every other cube, off its own arm at home (as in the single
+// demo) and far enough from every other arm at home for it to work there.
+Result<std::vector<SortItem>> cell_layout(const Workcell& cell, unsigned seed, int cubes) {
+  const int n = static_cast<int>(cell.robots.size());
+  for (int attempt = 0; attempt < 50; ++attempt) {
+    // cube k from robot k mod n, the colours in order (red, green, blue, ...)
+    std::vector<SortItem> items(static_cast<std::size_t>(cubes));
+    bool ok = true;
+    for (int r = 0; r < n && ok; ++r) {
+      int mine = 0;
+      for (int k = r; k < cubes; k += n) ++mine;
+      if (mine == 0) continue;
+      const RobotModel m = scene_in_base(cell, r);
+      auto spots =
+          random_layout(m, seed + 1000u * static_cast<unsigned>(attempt) + r, mine, m.home);
+      if (!spots) return spots.error();
+      for (int j = 0; j < mine; ++j) {
+        const SortItem& s = (*spots)[static_cast<std::size_t>(j)];
+        const auto w = base_to_world(cell.robots[r].base, {s.x_m, s.y_m, 0.0});
+        SortItem& it = items[static_cast<std::size_t>(r + j * n)];
+        it = s;
+        it.x_m = w[0];
+        it.y_m = w[1];
+        it.yaw_rad = s.yaw_rad + cell.robots[r].base.yaw_rad;
+      }
+    }
+    for (int k = 0; k < cubes; ++k) {
+      items[static_cast<std::size_t>(k)].color = static_cast<CubeColor>(k % kNumColors);
+    }
+    for (std::size_t i = 0; i < items.size() && ok; ++i) {
+      const std::array<double, 3> p{items[i].x_m, items[i].y_m, 0.0};
+      for (std::size_t j = 0; j < i; ++j) {
+        if (std::hypot(items[i].x_m - items[j].x_m, items[i].y_m - items[j].y_m) < 0.045) {
+          ok = false;
+        }
+      }
+      // its own arm's camera clearance; another arm at home must let this one work there
+      const int owner = static_cast<int>(i) % n;
+      for (int r = 0; r < n && ok; ++r) {
+        const double keep = r == owner ? kArmClearance_m : kClearanceM + kArmHalfWidthM;
+        const auto pts = home_arm_points(cell, r);
+        for (std::size_t s = 0; s + 1 < pts.size(); ++s) {
+          if (to_segment(p, pts[s], pts[s + 1]) < keep) ok = false;
+        }
+      }
+    }
+    if (ok) return items;
+  }
+  return Error{static_cast<int>(HubError::kTask),
+               "no layout of the cubes keeps them apart and off the arms (50 draws)"};
+}
+
+// One task per cube: pick it where it lies, place it in its colour's tray (the single demo's
+// heights: grasp, and 4 mm above it to release).
+std::vector<WorkcellTask> cell_tasks(const Workcell& cell, const std::vector<SortItem>& cubes) {
+  std::vector<WorkcellTask> tasks;
+  int per_color[kNumColors] = {};
+  for (const SortItem& c : cubes) {
+    const Tray& tray = cell.scene.trays[static_cast<std::size_t>(c.color)];
+    tasks.push_back(WorkcellTask{
+        fmt::format("{} cube {}", color_name(c.color), per_color[static_cast<int>(c.color)]++),
+        ToolPose{c.x_m, c.y_m, cell.scene.grasp_z_m, c.yaw_rad},
+        ToolPose{tray.x_m, tray.y_m, cell.scene.grasp_z_m + 0.004, 0.0}});
+  }
+  return tasks;
+}
+
+Result<std::uint16_t> start_simulator(ChildProcess& sim) {
+  auto listening = sim.wait_for_line("listening on", 30s);
+  if (!listening) return Error{AppError::kRigStart, "simulator: " + listening.error().message};
+  const std::size_t colon = listening->rfind(':', listening->find(" (speed"));
+  return static_cast<std::uint16_t>(std::stoi(listening->substr(colon + 1)));
+}
+
+// Runs `body(arm)` for every arm at once; the first error, naming its robot.
+template <class F>
+Status for_each_at_once(std::vector<Arm>& arms, F body) {
+  std::vector<Status> result(arms.size(), Status{Ok{}});
+  std::vector<std::thread> threads;
+  for (std::size_t i = 0; i < arms.size(); ++i) {
+    threads.emplace_back([&, i] { result[i] = body(arms[i]); });
+  }
+  for (std::thread& t : threads) t.join();
+  for (std::size_t i = 0; i < arms.size(); ++i) {
+    if (!result[i]) {
+      return Error{result[i].error().code, arms[i].name + ": " + result[i].error().message};
+    }
+  }
+  return Ok{};
+}
+
+}  // namespace
+
+int run_cell_demo(const CellDemoOptions& a) {
+  const fs::path file = a.workcell.empty()
+                            ? default_robot_config_path().parent_path() / "two_arms_trays.toml"
+                            : fs::path(a.workcell);
+  auto cell_r = load_workcell_config(file);
+  if (!cell_r) {
+    std::fprintf(stderr, "scaratwin demo: %s\n", cell_r.error().message.c_str());
+    return kExitUsage;
+  }
+  const Workcell& cell = *cell_r;
+  const int n = static_cast<int>(cell.robots.size());
+  if (n != a.robots) {
+    std::fprintf(stderr, "scaratwin demo: --robots %d, but %s has %d robot%s (%s)\n", a.robots,
+                 file.c_str(), n, n == 1 ? "" : "s", robot_names(cell).c_str());
+    return kExitUsage;
+  }
+  const auto out_dir = create_out_dir(a.out.string(), "demo");
+  if (!out_dir) return kExitUsage;
+  const fs::path& out = *out_dir;
+  std::signal(SIGINT, on_interrupt);
+  std::signal(SIGTERM, on_interrupt);
+  fmt::print("scaratwin demo: {} robots ({}) of {}, results in {}\n", n, robot_names(cell),
+             file.string(), out.string());
+
+  // 1. the simulator of the whole workcell, and each robot with its hub
+  auto sim = ChildProcess::start(
+      sibling_executable("scaratwin-sim"),
+      {"--workcell", file.string(), "--port", "0", "--http-port", std::to_string(a.http_port)},
+      out / "sim.log");
+  if (!sim) {
+    std::fprintf(stderr, "scaratwin demo: %s\n", sim.error().message.c_str());
+    return kExitFailure;
+  }
+  auto port = start_simulator(**sim);
+  if (!port) {
+    std::fprintf(stderr, "scaratwin demo: %s\n", port.error().message.c_str());
+    return kExitFailure;
+  }
+  if (a.http_port != 0) {
+    if (auto ui = (*sim)->wait_for_line("http://", 5s); ui) {
+      fmt::print("3D view: {}\n", ui->substr(ui->find("http://")));
+    }
+  }
+  std::vector<Arm> arms(static_cast<std::size_t>(n));
+  for (int i = 0; i < n; ++i) {
+    Arm& arm = arms[static_cast<std::size_t>(i)];
+    const RobotInstance& r = cell.robots[static_cast<std::size_t>(i)];
+    arm.name = r.name;
+    arm.model = scene_in_base(cell, i);
+    auto db = TwinDb::open(out / fmt::format("twin-{}.db", r.name));
+    if (!db) {
+      std::fprintf(stderr, "scaratwin demo: %s\n", db.error().message.c_str());
+      return kExitFailure;
+    }
+    arm.db = std::move(*db);
+    EmulatedRobotOptions eo;
+    eo.args = {"--speed", fmt::format("{}", a.robot_speed), "--plant", "ideal"};
+    if (!r.description_file.empty()) {
+      eo.args.insert(eo.args.end(), {"--config", r.description_file});
+    }
+    eo.log = out / fmt::format("robot-{}.log", r.name);
+    HubOptions ho;
+    ho.sim_port = *port;
+    ho.sim_robot = i;
+    ho.description_source = r.description_file;
+    auto hub = Hub::connect(arm.model, emulated_robot(eo), ho, arm.db.get());
+    if (!hub) {
+      std::fprintf(stderr, "scaratwin demo: %s: %s\n", r.name.c_str(), hub.error().message.c_str());
+      return kExitFailure;
+    }
+    arm.hub = std::move(*hub);
+    fmt::print(
+        "robot {} '{}': firmware in the AVR emulator on {}, base at ({:.0f}, {:.0f}) mm, "
+        "{:.0f} deg\n",
+        i, r.name, arm.hub->robot_interface().where(), m_to_mm(r.base.x_m), m_to_mm(r.base.y_m),
+        rad_to_deg(r.base.yaw_rad));
+    auto run = arm.hub->begin_run(
+        "cell-sort", fmt::format("robot {} '{}' of {}", i, r.name, file.filename().string()));
+    if (!run) {
+      std::fprintf(stderr, "scaratwin demo: %s\n", run.error().message.c_str());
+      return kExitFailure;
+    }
+    arm.run = *run;
+  }
+  std::fflush(stdout);
+  const auto t0 = std::chrono::steady_clock::now();
+
+  auto fail = [&](const std::string& why) {
+    std::fprintf(stderr, "scaratwin demo: %s\n", why.c_str());
+    for (Arm& arm : arms) (void)arm.hub->end_run(false);
+    return kExitFailure;
+  };
+
+  // 2. home every robot at once, mirrored
+  fmt::print("==> [1/4] home every robot against its endstops\n");
+  std::fflush(stdout);
+  if (Status s = for_each_at_once(
+          arms,
+          [](Arm& arm) {
+            if (Status p = arm.hub->set_twin_phase(protocol::TwinPhase::kMirror); !p) {
+              return p;
+            }
+            arm.hub->set_mirror(true);
+            return arm.hub->home();
+          });
+      !s) {
+    return fail(s.error().message);
+  }
+
+  // 3. the cubes, the tasks, and the plan, checked before anything moves
+  fmt::print("==> [2/4] {} cubes on the table; the tasks split by reach and planned apart\n",
+             a.cubes);
+  WorkcellPlanOptions po;
+  po.pick_place.approach_height_m = cell.scene.approach_height_m;
+  po.home_after_each = true;  // a waiting arm stands at home, not over a tray
+  po.clearance.clearance_m = kClearanceM;
+  std::vector<JointVector> start;
+  for (Arm& arm : arms) start.push_back(arm.hub->physical().q);
+  // a layout whose tasks the arms can share apart (some cannot: a cube whose tray only an arm
+  // that would pass the other's home reaches), drawn again up to 20 times
+  std::vector<SortItem> layout;
+  for (int attempt = 0; attempt < 20; ++attempt) {
+    auto drawn = cell_layout(cell, a.seed + 7919u * static_cast<unsigned>(attempt), a.cubes);
+    if (!drawn) return fail(drawn.error().message);
+    auto trial = plan_workcell_sort(cell, cell_tasks(cell, *drawn), start, po);
+    if (trial) {
+      layout = std::move(*drawn);
+      break;
+    }
+    if (trial.error().code != static_cast<int>(PlanError::kCollision) || attempt == 19) {
+      return fail("plan: " + trial.error().message);
+    }
+  }
+  Hub& scene = *arms[0].hub;  // robot 0's base frame is the world frame
+  for (const SortItem& it : layout) {
+    if (auto id = scene.spawn_cube(it.color, it.x_m, it.y_m); !id) {
+      return fail(id.error().message);
+    }
+  }
+  std::this_thread::sleep_for(300ms);  // the cubes settle
+  auto objects = scene.objects();
+  if (!objects) return fail(objects.error().message);
+  std::vector<SortItem> found;
+  for (const protocol::ObjectPose& o : *objects) {
+    found.push_back(SortItem{o.color, o.x_m, o.y_m, o.yaw_rad});
+  }
+  const std::vector<WorkcellTask> tasks = cell_tasks(cell, found);
+  auto plan = plan_workcell_sort(cell, tasks, start, po);
+  if (!plan) return fail("plan: " + plan.error().message);
+  for (std::size_t t = 0; t < tasks.size(); ++t) {
+    const int r = plan->robot_of_task[t];
+    ++arms[static_cast<std::size_t>(r)].tasks;
+    fmt::print("  {} at ({:.0f}, {:.0f}) mm -> {}\n", tasks[t].what, m_to_mm(tasks[t].pick_W.x_m),
+               m_to_mm(tasks[t].pick_W.y_m), cell.robots[static_cast<std::size_t>(r)].name);
+  }
+  const ArmApproach& closest = plan->clearance.closest;
+  fmt::print(
+      "  planned: {:.1f} s; the arms at least {:.0f} mm apart seen from above (robots {} "
+      "and {} at {:.1f} s; clearance {:.0f} mm, {} looks)\n",
+      plan->makespan_s, m_to_mm(closest.bound_m), closest.robot_a, closest.robot_b, closest.t_s,
+      m_to_mm(po.clearance.clearance_m), plan->clearance.looks);
+  std::fflush(stdout);
+
+  // 4. every robot runs its timeline at once, mirrored; the simulator's contacts are watched
+  fmt::print("==> [3/4] the robots sort the cubes together, mirrored live\n");
+  std::fflush(stdout);
+  auto contacts0 = scene.arm_contacts();
+  if (!contacts0) return fail(contacts0.error().message);
+  for (Arm& arm : arms) (void)arm.hub->set_twin_phase(protocol::TwinPhase::kControl);
+  std::atomic<int> running{n};
+  std::atomic<bool> touched{false};
+  protocol::ArmContacts touch{};
+  std::thread watch([&] {
+    while (running.load() > 0) {
+      std::this_thread::sleep_for(100ms);
+      if (g_interrupted) {
+        for (Arm& arm : arms) arm.hub->interrupt();
+      }
+      auto c = scene.arm_contacts();
+      if (c && c->count > contacts0->count && !touched.exchange(true)) {
+        touch = *c;
+        for (Arm& arm : arms) arm.hub->interrupt();  // stops each robot at once
+      }
+    }
+  });
+  Status ran = for_each_at_once(arms, [&](Arm& arm) -> Status {
+    const std::size_t i = static_cast<std::size_t>(&arm - arms.data());
+    auto r = arm.hub->run_trajectory(plan->timeline[i]);
+    running.fetch_sub(1);
+    if (!r) {
+      arm.error = r.error().message;
+      return r.error();
+    }
+    return Ok{};
+  });
+  watch.join();
+  std::this_thread::sleep_for(500ms);  // the last cubes land
+
+  // 5. the figures
+  fmt::print("==> [4/4] figures\n");
+  auto final_objects = scene.objects();
+  const int in_trays = final_objects ? cubes_in_trays(scene_in_base(cell, 0), *final_objects) : -1;
+  auto contacts = scene.arm_contacts();
+  const int touches = contacts ? contacts->count - contacts0->count : -1;
+  const double dur = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  nlohmann::json j;
+  j["workcell"] = file.string();
+  j["cubes"] = a.cubes;
+  j["in_trays"] = in_trays;
+  j["arm_touches"] = touches;
+  j["planned_makespan_s"] = plan->makespan_s;
+  j["planned_least_distance_mm"] = m_to_mm(closest.bound_m);
+  j["clearance_mm"] = m_to_mm(po.clearance.clearance_m);
+  bool lossless = true;
+  for (Arm& arm : arms) {
+    const MirrorCounters mc = arm.hub->mirror_counters();
+    lossless = lossless && mc.lost == 0;
+    fmt::print("  {}: {} tasks; mirror {} frames, {} lost, mean latency {:.2f} ms{}\n", arm.name,
+               arm.tasks, mc.frames, mc.lost, mc.mean_latency_ms,
+               arm.error.empty() ? "" : "; stopped: " + arm.error);
+    j["robots"].push_back({{"name", arm.name},
+                           {"tasks", arm.tasks},
+                           {"frames", mc.frames},
+                           {"lost", mc.lost},
+                           {"mean_latency_ms", mc.mean_latency_ms},
+                           {"stopped", arm.error}});
+  }
+  if (touched) {
+    fmt::print("  the simulator saw robots {} and {} touch at {:.2f} s: every robot was stopped\n",
+               touch.robot_a, touch.robot_b, touch.t_us * 1e-6);
+  } else {
+    fmt::print("  the arms never touched in the simulator\n");
+  }
+  const bool ok = ran.ok() && in_trays == a.cubes && touches == 0 && lossless;
+  {
+    std::ofstream f(out / "results.json");
+    f << j.dump(2) << "\n";
+  }
+  fmt::print("results: {}\n", (out / "results.json").string());
+  for (Arm& arm : arms) {
+    (void)arm.hub->end_run(ok);
+    const fs::path report = out / fmt::format("report-{}.html", arm.name);
+    if (Status s = write_report(*arm.db, arm.model, arm.run, report); !s) {
+      std::fprintf(stderr, "scaratwin demo: report of %s: %s\n", arm.name.c_str(),
+                   s.error().message.c_str());
+    } else {
+      fmt::print("report of {}: {}\n", arm.name, report.string());
+    }
+  }
+  if (!ran) std::fprintf(stderr, "scaratwin demo: %s\n", ran.error().message.c_str());
+  fmt::print("demo {} in {:.0f} s: {} of {} cubes in their trays, {} robots\n",
+             ok ? "passed" : "FAILED", dur, std::max(in_trays, 0), a.cubes, n);
+  std::fflush(stdout);
+  if (a.keep_open) {
+    fmt::print("--keep-open: the simulator and its UI keep running; Ctrl-C to stop\n");
+    std::fflush(stdout);
+    while (!g_interrupted) std::this_thread::sleep_for(200ms);
+  }
+  for (Arm& arm : arms) arm.hub.reset();
+  (*sim)->stop();
+  return ok ? kExitOk : kExitFailure;
+}
+
+}  // namespace scaratwin::cli
