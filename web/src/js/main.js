@@ -94,11 +94,12 @@ function updateRobots(state) {
   const rows = robots.map((r) => {
     const j = r.display.map((v) => v.toFixed(1)).map((v) => `<td>${v}</td>`).join('');
     const grip = r.gripper.closed ? (r.gripper.held >= 0 ? `#${r.gripper.held}` : 'closed') : 'open';
-    // its hub's link: up or down, frames lost, mean latency over the last second
+    // its hub's link, on a line of its own: up or down, rate, frames lost, mean latency
     const l = r.link;
-    const link = l ? `<td>${l.connected ? `${l.rate_hz.toFixed(0)}/s` : 'down'}</td><td>${l.lost}</td>` +
-      `<td>${l.latency_mean_ms !== undefined ? l.latency_mean_ms.toFixed(2) : '—'}</td>` : '<td>—</td><td>—</td><td>—</td>';
-    return `<tr data-robot="${r.name}"><td>${r.name}</td><td>${r.mode}</td>${j}<td>${grip}</td>${link}</tr>`;
+    const latency = l && l.latency_mean_ms !== undefined ? ` · ${l.latency_mean_ms.toFixed(2)} ms` : '';
+    const link = !l ? '' : `<tr class="robot-link" data-link="${r.name}"><td></td><td colspan="6">` +
+      (l.connected ? `link ${l.rate_hz.toFixed(0)}/s · ${l.lost} lost${latency}` : 'link down') + '</td></tr>';
+    return `<tr data-robot="${r.name}"><td>${r.name}</td><td>${r.mode}</td>${j}<td>${grip}</td></tr>${link}`;
   }).join('');
   const tbody = $('robot-list');
   if (tbody.dataset.html !== rows) {
