@@ -315,10 +315,10 @@ TEST(DemoCell, TwoArmsSortTheCubesTogether) {
   const fs::path out = fresh_dir("demo-cell");
   auto demo = ChildProcess::start(
       kBin / "scaratwin",
-      {"demo", "--robots", "2", "--out", out.string(), "--http-port", "0", "--robot-speed", "2"},
+      {"demo", "--robots", "2", "--out", out.string(), "--http-port", "0", "--robot-speed", "1"},
       out / "demo.log");
   ASSERT_TRUE(demo) << demo.error().message;
-  auto done = (*demo)->wait_for_line("demo passed", 900s);
+  auto done = (*demo)->wait_for_line("demo passed", 900s);  // about 85 s
   const int status = (*demo)->wait_exit(120s);
   ASSERT_TRUE(done) << done.error().message << "\n" << (*demo)->output_tail(40);
   EXPECT_EQ(status, 0) << (*demo)->output_tail(40);
@@ -371,7 +371,9 @@ TEST(DemoCell, TwoArmsSortTheCubesTogether) {
   }
   EXPECT_GT(compared, 100);
   // planned 70 mm apart; the two robots start their timelines a few tens of milliseconds
-  // apart and report every 10 ms (64 mm recorded on this machine); their links are 36 mm wide
+  // apart and report every 10 ms (64 mm recorded on this machine); their links are 36 mm wide.
+  // At real time: two emulators of the sanitizer build at twice real time fell behind in CI
+  // (reports lost, TP replies late) on this 2-core machine
   EXPECT_GE(least, 0.050) << "the arms came within " << least * 1e3 << " mm of each other";
   std::printf("least distance of the recorded arms: %.1f mm over %d samples\n", least * 1e3,
               compared);
