@@ -118,7 +118,13 @@ Status Hub::simulate_trajectory(const JointTrajectory& traj, double speed) {
   // pose after the scene was reset (virtual robot at home) would otherwise begin with a jump
   // that the simulated actuators make in a few tens of ms and the physical robot never makes.
   if (Status s = place_virtual(traj.samples.front().q); !s) return s;
-  const auto start = std::chrono::steady_clock::now();
+  // The targets keep the plan's spacing in time. When the hub falls behind it by more than
+  // kLateMargin (the hub or the simulator descheduled on a loaded machine, a slow reply), the
+  // rest of the plan is held back by as much: the targets it missed, sent back to back, would
+  // make the virtual robot's servos chase a target far ahead and cut the plan's curves (15 mm
+  // off the path after a stall of a few hundred ms), so the prediction would not be the plan's.
+  constexpr auto kLateMargin = std::chrono::milliseconds(5);
+  auto start = std::chrono::steady_clock::now();
   size_t next_event = 0;
   const auto record_state = [&]() -> Status {
     auto st = sim_state();
@@ -131,8 +137,13 @@ Status Hub::simulate_trajectory(const JointTrajectory& traj, double speed) {
   };
   for (size_t k = 0; k < traj.samples.size(); ++k) {
     const JointSample& s = traj.samples[k];
-    std::this_thread::sleep_until(
-        start + std::chrono::microseconds(static_cast<long long>(s.t_s / speed * 1e6)));
+    const auto due = start + std::chrono::microseconds(static_cast<long long>(s.t_s / speed * 1e6));
+    const auto now = std::chrono::steady_clock::now();
+    if (now > due + kLateMargin) {
+      start += now - due;
+    } else {
+      std::this_thread::sleep_until(due);
+    }
     pr::JointTargets tj;
     tj.seq = static_cast<std::uint16_t>(k);
     tj.t_us = static_cast<std::uint32_t>(tr::steady_now_us());
