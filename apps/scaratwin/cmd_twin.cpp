@@ -160,6 +160,7 @@ int with_hub(const CommonOptions& common, const LinkArgs& l, const std::string& 
   const RobotModel& model = chosen->instance.model;
   HubOptions o;
   o.sim_robot = chosen->index;
+  o.base = chosen->instance.base;
   o.report_rate_hz = l.report_hz;
   o.serial_device = l.serial;
   if (o.serial_device.empty()) {

@@ -226,6 +226,7 @@ int run_cell_demo(const CellDemoOptions& a) {
     HubOptions ho;
     ho.sim_port = *port;
     ho.sim_robot = i;
+    ho.base = r.base;
     ho.description_source = r.description_file;
     auto hub = Hub::connect(arm.model, emulated_robot(eo), ho, arm.db.get());
     if (!hub) {

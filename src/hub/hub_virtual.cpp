@@ -7,6 +7,8 @@
 #include <fmt/format.h>
 
 #include "hub_internal.hpp"
+#include "scaratwin/kinematics/kinematics.hpp"
+#include "scaratwin/kinematics/workcell.hpp"
 
 namespace scaratwin {
 
@@ -60,14 +62,35 @@ Status Hub::sim_mode(pr::SimMode mode) {
 }
 
 Result<int> Hub::spawn_cube(CubeColor color, double x_m, double y_m) {
-  auto r = sim_reply<pr::Ack>("spawn",
-                              sim_->request(pr::SpawnCube{color, x_m, y_m}, milliseconds(2000)));
+  const auto w = base_to_world(options_.base, {x_m, y_m, 0.0});
+  auto reply = sim_->request(pr::SpawnCube{color, w[0], w[1]}, milliseconds(2000));
+  if (!reply && reply.error().code == protocol_error_code(pr::core::kErrBadValue)) {
+    // the simulator says why in its log; the wire says only which field (docs/protocol.md)
+    return hub_error(fmt::format(
+        "simulator spawn: the simulator refused a cube at ({:.4f}, {:.4f}) m{}: off its table, "
+        "or closer than a cube's diagonal to another cube ({})",
+        x_m, y_m,
+        options_.sim_robot == 0
+            ? std::string()
+            : fmt::format(" in robot {}'s base frame, ({:.4f}, {:.4f}) m in the world",
+                          options_.sim_robot, w[0], w[1]),
+        reply.error().message));
+  }
+  auto r = sim_reply<pr::Ack>("spawn", std::move(reply));
   if (!r) return r.error();
   return r->value.value_or(-1);
 }
 
 Status Hub::reset_scene() {
-  auto r = sim_reply<pr::Ack>("reset", sim_->request(pr::ResetScene{}, milliseconds(2000)));
+  auto reply = sim_->request(pr::ResetScene{}, milliseconds(2000));
+  if (!reply && options_.sim_robot != 0 &&
+      reply.error().code == protocol_error_code(pr::core::kErrAccess)) {
+    return hub_error(fmt::format(
+        "simulator reset: the robots of a workcell share its scene, and only the hub of its "
+        "first robot (0) resets it; this hub drives robot {} ({})",
+        options_.sim_robot, reply.error().message));
+  }
+  auto r = sim_reply<pr::Ack>("reset", std::move(reply));
   if (!r) return r.error();
   std::lock_guard<std::mutex> lock(mu_);
   sim_grip_closed_ = false;
@@ -82,7 +105,15 @@ Result<pr::ArmContacts> Hub::arm_contacts() {
 Result<std::vector<pr::ObjectPose>> Hub::objects() {
   auto r = statements_->object_positions();
   if (!r) return hub_error(fmt::format("simulator objects: {}", r.error().message));
-  return *r;
+  std::vector<pr::ObjectPose> in_base = *r;
+  for (pr::ObjectPose& o : in_base) {
+    const auto p = world_to_base(options_.base, {o.x_m, o.y_m, o.z_m});
+    o.x_m = p[0];
+    o.y_m = p[1];
+    o.z_m = p[2];
+    o.yaw_rad = wrap_angle(o.yaw_rad - options_.base.yaw_rad);
+  }
+  return in_base;
 }
 
 Result<std::string> Hub::shoot(int width_px, int height_px) {

@@ -419,6 +419,7 @@ TEST(HubWorkcell, TwoHubsDriveTheTwoArmsOfOneSimulatorAtOnce) {
     HubOptions o;
     o.sim_port = *port;
     o.sim_robot = i;
+    o.base = cell->robots[static_cast<std::size_t>(i)].base;
     auto hub = Hub::connect(scene_in_base(*cell, i), std::make_unique<FakeInterface>(fakes.back()),
                             o, nullptr);
     ASSERT_TRUE(hub) << "robot " << i << ": " << hub.error().message;
@@ -473,6 +474,51 @@ TEST(HubWorkcell, TwoHubsDriveTheTwoArmsOfOneSimulatorAtOnce) {
     EXPECT_NEAR(st->q[0], 0.12, 1e-4) << "robot " << i << " at d1 120 mm";
     EXPECT_EQ(hub.mirror_counters().lost, 0u) << "robot " << i;
   }
+
+  // Objects in each robot's own base frame: the right robot (config/two_arms.toml: base at
+  // (400, 200) mm, turned 180 deg) puts a cube 150 mm ahead of it and 100 mm to its right,
+  // (150, -100) mm in its frame, which is (400 - 150, 200 + 100) = (250, 300) mm in the world,
+  // robot 0's frame; each hub reads it back in its own frame, the cube's yaw turned with it.
+  ASSERT_TRUE(hubs[1]->sim_mode(protocol::SimMode::kSimulate));
+  auto id = hubs[1]->spawn_cube(CubeColor::kBlue, 0.150, -0.100);
+  ASSERT_TRUE(id) << id.error().message;
+  std::this_thread::sleep_for(300ms);  // the cube settles
+  const auto cube_of = [&](Hub& hub) -> protocol::ObjectPose {
+    auto objs = hub.objects();
+    EXPECT_TRUE(objs) << objs.error().message;
+    for (const protocol::ObjectPose& o : objs ? *objs : std::vector<protocol::ObjectPose>{}) {
+      if (o.id == *id) return o;
+    }
+    ADD_FAILURE() << "cube " << *id << " not in the scene";
+    return {};
+  };
+  const protocol::ObjectPose in_world = cube_of(*hubs[0]);
+  const protocol::ObjectPose in_right = cube_of(*hubs[1]);
+  EXPECT_NEAR(in_world.x_m, 0.250, 1e-3);
+  EXPECT_NEAR(in_world.y_m, 0.300, 1e-3);
+  EXPECT_NEAR(in_right.x_m, 0.150, 1e-3);
+  EXPECT_NEAR(in_right.y_m, -0.100, 1e-3);
+  EXPECT_NEAR(in_right.z_m, in_world.z_m, 1e-9) << "both bases stand on the floor";
+  EXPECT_NEAR(std::abs(wrap_angle(in_right.yaw_rad - in_world.yaw_rad)), M_PI, 1e-6);
+  // a second cube on the first one's spot is refused naming the spot in both frames, and the
+  // shared scene is not the right robot's to reset: nothing changes
+  auto again = hubs[1]->spawn_cube(CubeColor::kRed, 0.150, -0.100);
+  ASSERT_FALSE(again);
+  EXPECT_NE(again.error().message.find(
+                "the simulator refused a cube at (0.1500, -0.1000) m in robot 1's base frame, "
+                "(0.2500, 0.3000) m in the world: off its table, or closer than a cube's "
+                "diagonal to another cube"),
+            std::string::npos)
+      << again.error().message;
+  const Status reset = hubs[1]->reset_scene();
+  ASSERT_FALSE(reset);
+  EXPECT_NE(reset.error().message.find("only the hub of its first robot (0) resets it; this hub "
+                                       "drives robot 1"),
+            std::string::npos)
+      << reset.error().message;
+  auto left = hubs[0]->objects();
+  ASSERT_TRUE(left);
+  EXPECT_EQ(left->size(), 1u);
 }
 
 }  // namespace

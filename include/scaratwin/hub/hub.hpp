@@ -34,6 +34,7 @@
 #include "scaratwin/hub/robot_interface.hpp"
 #include "scaratwin/hub/twin_db.hpp"
 #include "scaratwin/kinematics/motor.hpp"
+#include "scaratwin/kinematics/workcell.hpp"
 #include "scaratwin/protocol/messages.hpp"
 #include "scaratwin/trajectory/trajectory.hpp"
 #include "scaratwin/transport/channel.hpp"
@@ -58,6 +59,11 @@ struct HubOptions {
   // 11.3): every robot-addressed packet to the simulator carries it; 0, the first robot, sends
   // the v1 bytes. A simulator without that robot refuses it (error 19, no_robot).
   int sim_robot = 0;
+  // Where that robot's base stands in the simulator's world W (the workcell's pose of it;
+  // identity for robot 0 and for the paper's robot). The simulator's object positions are in
+  // W; the hub gives and takes them in the robot's base frame (spawn_cube(), objects()), the
+  // frame of its description's scene (scene_in_base()).
+  BasePose base;
   int report_rate_hz = 100;           // robot state reports while connected
   double hello_timeout_s = 5.0;       // a real board spends ~2 s in its bootloader
   double desync_threshold_m = 0.003;  // tool deviation that raises the desync alarm
@@ -203,6 +209,7 @@ class Hub {
   // Puts the virtual robot at `q` at once (kinematically, through mirror mode) and leaves the
   // simulator in simulate mode.
   Status place_virtual(const JointVector& q);
+  // Object positions in the robot's base frame (HubOptions::base).
   Result<int> spawn_cube(CubeColor color, double x_m, double y_m);
   Status reset_scene();
   Result<std::vector<protocol::ObjectPose>> objects();
