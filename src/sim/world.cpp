@@ -89,12 +89,20 @@ void World::run() {
     {
       std::lock_guard lock(mutex_);
       const double dt = sim_->timestep_s();
-      const bool fast = options_.speed == 0.0 && sim_->trajectory_active();
+      // --speed max: as fast as possible while any robot plays a trajectory, in lockstep with
+      // the streams of targets (a robot's stream is never played past its last target)
+      bool active = false;
+      double horizon_s = INFINITY;
+      for (int r = 0; r < sim_->robot_count(); ++r) {
+        active = active || sim_->trajectory_active(r);
+        if (sim_->stream_open(r)) horizon_s = std::min(horizon_s, sim_->stream_horizon_s(r));
+      }
+      const bool fast = options_.speed == 0.0 && active;
       Status st = Ok{};
       const std::uint64_t before_t = static_cast<std::uint64_t>(std::llround(sim_->time_s() / dt));
-      if (fast && sim_->stream_open()) {
-        // lockstep with the stream: up to its last target, then wait for the next one
-        const double ahead = (sim_->stream_horizon_s() - sim_->time_s()) / dt + 1e-9;
+      if (fast && std::isfinite(horizon_s)) {
+        // lockstep with the streams: up to the earliest last target, then wait for the next
+        const double ahead = (horizon_s - sim_->time_s()) / dt + 1e-9;
         const int n = std::min(kFastChunk, static_cast<int>(std::max(0.0, std::floor(ahead))));
         st = sim_->step(n);
         if (n == 0) next_due_s = 0.001;

@@ -3,9 +3,13 @@
 #include <utility>
 
 #include <chrono>
+#include <cstdint>
 #include <filesystem>
+#include <string>
 #include <thread>
+#include <tuple>
 
+#include <fmt/format.h>
 #include <gtest/gtest.h>
 
 #include "scaratwin/config/robot_config.hpp"
@@ -373,6 +377,57 @@ TEST(SimServerMax, TargetStreamRunsInLockstepAsFastAsPossible) {
   EXPECT_EQ((*world)->snapshot().time_s, t_end);  // no stepping past the stream
   EXPECT_NEAR((*world)->snapshot().joints[0], 0.07, 2e-3);
   EXPECT_EQ((*server)->handle_line("SP,"), "AK,SP,\n");
+}
+
+// --speed max in a workcell (config/two_arms.toml): any robot's stream sets the pace, and the
+// simulation never runs past the last target of any robot's stream. Robot 1 alone streams 3 s
+// of targets: the simulation catches up with them and waits there (robot 0 is idle). Then
+// robot 0 streams 1 s and robot 1 3 s more: it stops at robot 0's last target.
+TEST(SimServerMax, EveryRobotsStreamSetsThePaceOfAWorkcell) {
+  test::TwoArmsServer cell;
+  ASSERT_NO_FATAL_FAILURE(test::start_two_arms_server(&cell, 0.0));
+  SimServer& server = *cell.server;
+  World& world = *cell.world;
+  world.start();
+  world.set_paused(true);
+  EXPECT_EQ(server.handle_line("MD,simulate,"), "AK,MD,\n");
+  EXPECT_EQ(server.handle_line("MD,simulate,1,"), "AK,MD,\n");
+  // targets 20 ms apart on the senders' clocks, d1 from 120 mm down by 1 mm every 60 ms
+  const auto send = [&server](int robot, int from, int to, std::uint32_t t0) {
+    for (int i = from; i <= to; ++i) {
+      const std::string tj = fmt::format("TJ,{},{},{},0,0,0,{}", i, t0 + 20000u * i, 120 - i / 3,
+                                         robot == 0 ? "" : fmt::format("{},", robot));
+      const std::string ja = server.handle_line(tj);
+      ASSERT_EQ(ja.rfind("JA,", 0), 0u) << tj << " -> " << ja;
+    }
+  };
+  const auto settle_at = [&world](double t_s) {
+    const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(30);
+    while (world.snapshot().time_s < t_s - 1e-9 && std::chrono::steady_clock::now() < deadline) {
+      std::this_thread::sleep_for(std::chrono::milliseconds(10));
+    }
+    const double reached = world.snapshot().time_s;
+    std::this_thread::sleep_for(std::chrono::milliseconds(150));
+    return std::make_pair(reached, world.snapshot().time_s);
+  };
+  const double t_start = world.snapshot().time_s;
+  ASSERT_NO_FATAL_FAILURE(send(1, 0, 150, 1000000u));
+  world.set_paused(false);
+  auto [reached, later] = settle_at(t_start + 3.0);
+  EXPECT_NEAR(reached, t_start + 3.0, 1e-9) << "robot 1's stream alone";
+  EXPECT_EQ(later, reached) << "no stepping past robot 1's last target";
+  EXPECT_NEAR(world.snapshot().robots[1].joints[0], 0.070, 2e-3);
+
+  world.set_paused(true);
+  const double t_both = world.snapshot().time_s;
+  ASSERT_NO_FATAL_FAILURE(send(0, 0, 50, 7000000u));     // robot 0: 1 s from now
+  ASSERT_NO_FATAL_FAILURE(send(1, 151, 300, 1000000u));  // robot 1: to 6 s, 3 s from now
+  world.set_paused(false);
+  std::tie(reached, later) = settle_at(t_both + 1.0);
+  EXPECT_NEAR(reached, t_both + 1.0, 1e-9) << "robot 0's last target comes first";
+  EXPECT_EQ(later, reached) << "no stepping past robot 0's last target";
+  EXPECT_EQ(server.handle_line("SP,"), "AK,SP,\n");
+  EXPECT_EQ(server.handle_line("SP,1,"), "AK,SP,\n");
 }
 
 // TW: the hub says which of the twin's modes it runs; the server hands it on (to the UI) as

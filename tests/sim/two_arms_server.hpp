@@ -19,12 +19,14 @@ struct TwoArmsServer {
 };
 
 // Fills `out`; a failure is the calling test's (ASSERT_NO_FATAL_FAILURE around the call).
-inline void start_two_arms_server(TwoArmsServer* out) {
+// `speed` as scaratwin-sim's --speed (0: max).
+inline void start_two_arms_server(TwoArmsServer* out, double speed = 1.0) {
   auto cell = load_workcell_config(std::filesystem::path(SCARATWIN_CONFIG_FILE).parent_path() /
                                    "two_arms.toml");
   ASSERT_TRUE(cell.ok()) << cell.error().message;
   WorldOptions wo;
   wo.camera = false;
+  wo.speed = speed;
   auto w = World::create(*cell, {}, wo);
   ASSERT_TRUE(w.ok()) << w.error().message;
   ServerOptions o;

@@ -95,8 +95,9 @@ class World {
   static Result<std::unique_ptr<World>> create(const RobotModel& robot,
                                                const SimOptions& sim_options = {},
                                                const WorldOptions& options = {});
-  // A workcell of one or more robots (Simulation::create(Workcell)). With speed 0, robot 0's
-  // trajectories and streams set the pace.
+  // A workcell of one or more robots (Simulation::create(Workcell)). With speed 0, the
+  // simulation runs as fast as possible while any robot plays a trajectory, and never past the
+  // last target of any robot's stream.
   static Result<std::unique_ptr<World>> create(const Workcell& workcell,
                                                const SimOptions& sim_options = {},
                                                const WorldOptions& options = {});
