@@ -496,12 +496,12 @@ Result<DemoOutcome> run_phases(Hub& hub, TwinDb& db, const DemoArgs& a, std::int
 
 int run_demo(const CommonOptions& common, const DemoArgs& a) {
   if (a.robots > 1 || !a.workcell.empty()) {
-    if (!a.serial.empty() || a.calibrate_given || a.as_built_seed >= 0 || a.mqtt_given ||
-        a.layout_seed >= 0 || !common.config_path.empty()) {
+    if (!a.serial.empty() || a.calibrate_given || a.mqtt_given || a.layout_seed >= 0 ||
+        !common.config_path.empty()) {
       std::fprintf(stderr,
                    "scaratwin demo: --robots/--workcell runs the workcell's emulated robots; "
-                   "--serial, --calibrate, --as-built-seed, --mqtt, --layout-seed and --config "
-                   "are for the single robot\n");
+                   "--serial, --calibrate, --mqtt, --layout-seed and --config are for the single "
+                   "robot\n");
       return kExitUsage;
     }
     CellDemoOptions c;
@@ -513,6 +513,7 @@ int run_demo(const CommonOptions& common, const DemoArgs& a) {
     c.seed = a.seed;
     c.cubes = a.cubes;
     c.keep_open = a.keep_open;
+    c.as_built_seed = a.as_built_seed;
     return run_cell_demo(c);
   }
   auto model = load_model(common);
@@ -676,8 +677,10 @@ void add_demo_command(CLI::App& app, CommonOptions& common, Runner& run) {
       "calibrate after homing (the default with the emulated robot as built): the twin "
       "measures the robot and runs on the calibrated description "
       "(docs/calibration.md); --no-calibrate runs on the description as it is");
-  cmd->add_option("--as-built-seed", a->as_built_seed,
-                  "emulated robot: the seed of its build (default: the description's)")
+  cmd->add_option(
+         "--as-built-seed", a->as_built_seed,
+         "emulated robot: the seed of its build (default: the description's; with --robots, "
+         "robot i's build is drawn with this seed + i)")
       ->check(CLI::Range(0LL, 2147483647LL));
   cmd->add_option("--layout-seed", a->layout_seed,
                   "put the cubes at random reachable, non-overlapping spots of the workspace drawn "

@@ -6,6 +6,9 @@
 // simulator's contacts between the arms are watched, and a touch stops every robot.
 #include "demo_cell.hpp"
 
+#include "demo_figures.hpp"
+#include "emulator_side.hpp"
+
 #include <atomic>
 #include <chrono>
 #include <csignal>
@@ -29,6 +32,7 @@
 #include "scaratwin/hub/robot_interface.hpp"
 #include "scaratwin/hub/tasks.hpp"
 #include "scaratwin/kinematics/workcell.hpp"
+#include "scaratwin/sim/mjcf.hpp"
 #include "scaratwin/trajectory/workcell_plan.hpp"
 
 namespace scaratwin::cli {
@@ -37,11 +41,18 @@ namespace {
 using namespace std::chrono_literals;
 namespace fs = std::filesystem;
 
-// The planner keeps the arms' centre lines apart (trajectory/clearance.hpp); an arm is wider:
-// its gripper's body reaches about 30 mm either side of the line (src/sim/mjcf.cpp). Apart by
-// twice that and 10 mm more, two arms do not touch.
-constexpr double kArmHalfWidthM = 0.030;
-constexpr double kClearanceM = 2 * kArmHalfWidthM + 0.010;
+// The planner keeps the arms' centre lines apart (trajectory/clearance.hpp); an arm is wider
+// (sim::arm_half_width_m: its marker flag, 30 mm off the wrist axis, with the paper's cube).
+// Apart by twice the widest arm's half width and 10 mm more, two arms do not touch.
+double arm_half_width(const Workcell& cell) {
+  double w = 0.0;
+  for (int r = 0; r < static_cast<int>(cell.robots.size()); ++r) {
+    // the gripper is sized for the workcell's cubes
+    w = std::max(w, sim::arm_half_width_m(scene_in_base(cell, r)));
+  }
+  return w;
+}
+double clearance_m(const Workcell& cell) { return 2 * arm_half_width(cell) + 0.010; }
 
 std::atomic<bool> g_interrupted{false};
 void on_interrupt(int) { g_interrupted = true; }
@@ -54,19 +65,11 @@ struct Arm {
   std::unique_ptr<TwinDb> db;
   std::unique_ptr<Hub> hub;
   std::int64_t run = 0;
+  std::uint64_t build_seed = 0;          // its as-built draw (ideal: unused)
+  std::unique_ptr<TruthRecorder> truth;  // the measuring instrument (as built), else null
   int tasks = 0;
   std::string error;  // what ended its motion early
 };
-
-// The shortest distance (m) from p to the segment a-b, in the table's plane.
-double to_segment(const std::array<double, 3>& p, const std::array<double, 3>& a,
-                  const std::array<double, 3>& b) {
-  const double dx = b[0] - a[0], dy = b[1] - a[1];
-  const double len2 = dx * dx + dy * dy;
-  double t = len2 > 0 ? ((p[0] - a[0]) * dx + (p[1] - a[1]) * dy) / len2 : 0.0;
-  t = std::clamp(t, 0.0, 1.0);
-  return std::hypot(p[0] - (a[0] + t * dx), p[1] - (a[1] + t * dy));
-}
 
 // Cube spots in W: cube k is drawn from robot (k mod n)'s workspace (tasks::random_layout in
 // its base frame), kept apart from every other cube, off its own arm at home (as in the single
@@ -108,10 +111,10 @@ Result<std::vector<SortItem>> cell_layout(const Workcell& cell, unsigned seed, i
       // its own arm's camera clearance; another arm at home must let this one work there
       const int owner = static_cast<int>(i) % n;
       for (int r = 0; r < n && ok; ++r) {
-        const double keep = r == owner ? kArmClearance_m : kClearanceM + kArmHalfWidthM;
+        const double keep = r == owner ? kArmClearance_m : clearance_m(cell) + arm_half_width(cell);
         const auto pts = home_arm_points(cell, r);
         for (std::size_t s = 0; s + 1 < pts.size(); ++s) {
-          if (to_segment(p, pts[s], pts[s + 1]) < keep) ok = false;
+          if (distance_to_segment_xy(p, pts[s], pts[s + 1]) < keep) ok = false;
         }
       }
     }
@@ -218,7 +221,19 @@ int run_cell_demo(const CellDemoOptions& a) {
     }
     arm.db = std::move(*db);
     EmulatedRobotOptions eo;
-    eo.args = {"--speed", fmt::format("{}", a.robot_speed), "--plant", "ideal"};
+    eo.args = {"--speed", fmt::format("{}", a.robot_speed), "--camera-port", "-1"};
+    if (a.ideal) {
+      eo.args.insert(eo.args.end(), {"--plant", "ideal"});
+    } else {
+      // a build of its own: two arms of one description are two prints, not one
+      arm.build_seed =
+          static_cast<std::uint64_t>(a.as_built_seed >= 0
+                                         ? a.as_built_seed
+                                         : static_cast<long long>(r.model.physical.as_built.seed)) +
+          static_cast<std::uint64_t>(i);
+      eo.args.insert(eo.args.end(),
+                     {"--plant", "as-built", "--as-built-seed", std::to_string(arm.build_seed)});
+    }
     if (!r.description_file.empty()) {
       eo.args.insert(eo.args.end(), {"--config", r.description_file});
     }
@@ -236,9 +251,23 @@ int run_cell_demo(const CellDemoOptions& a) {
     arm.hub = std::move(*hub);
     fmt::print(
         "robot {} '{}': firmware in the AVR emulator on {}, base at ({:.0f}, {:.0f}) mm, "
-        "{:.0f} deg\n",
+        "{:.0f} deg, {}\n",
         i, r.name, arm.hub->robot_interface().where(), m_to_mm(r.base.x_m), m_to_mm(r.base.y_m),
-        rad_to_deg(r.base.yaw_rad));
+        rad_to_deg(r.base.yaw_rad),
+        a.ideal ? std::string("exact (plant ideal)")
+                : fmt::format("as built (seed {})", arm.build_seed));
+    if (!a.ideal) {
+      // the truth of the robot as built: read only for the figures, as a tape measure is
+      if (const std::uint16_t side = arm.hub->robot_interface().side_channel_port(); side != 0) {
+        auto t = TruthRecorder::start(side, 200.0);
+        if (!t) {
+          std::fprintf(stderr, "scaratwin demo: %s: %s\n", r.name.c_str(),
+                       t.error().message.c_str());
+          return kExitFailure;
+        }
+        arm.truth = std::move(*t);
+      }
+    }
     auto run = arm.hub->begin_run(
         "cell-sort", fmt::format("robot {} '{}' of {}", i, r.name, file.filename().string()));
     if (!run) {
@@ -278,7 +307,7 @@ int run_cell_demo(const CellDemoOptions& a) {
   WorkcellPlanOptions po;
   po.pick_place.approach_height_m = cell.scene.approach_height_m;
   po.home_after_each = true;  // a waiting arm stands at home, not over a tray
-  po.clearance.clearance_m = kClearanceM;
+  po.clearance.clearance_m = clearance_m(cell);
   std::vector<JointVector> start;
   for (Arm& arm : arms) start.push_back(arm.hub->physical().q);
   // a layout whose tasks the arms can share apart (some cannot: a cube whose tray only an arm
@@ -348,6 +377,7 @@ int run_cell_demo(const CellDemoOptions& a) {
       }
     }
   });
+  const std::uint64_t sort_from_us = monotonic_us();
   Status ran = for_each_at_once(arms, [&](Arm& arm) -> Status {
     const std::size_t i = static_cast<std::size_t>(&arm - arms.data());
     auto r = arm.hub->run_trajectory(plan->timeline[i]);
@@ -360,6 +390,7 @@ int run_cell_demo(const CellDemoOptions& a) {
   });
   watch.join();
   std::this_thread::sleep_for(500ms);  // the last cubes land
+  const std::uint64_t sort_to_us = monotonic_us();
 
   // 5. the figures
   fmt::print("==> [4/4] figures\n");
@@ -383,14 +414,37 @@ int run_cell_demo(const CellDemoOptions& a) {
     fmt::print("  {}: {} tasks; mirror {} frames, {} lost, mean latency {:.2f} ms{}\n", arm.name,
                arm.tasks, mc.frames, mc.lost, mc.mean_latency_ms,
                arm.error.empty() ? "" : "; stopped: " + arm.error);
-    j["robots"].push_back({{"name", arm.name},
-                           {"tasks", arm.tasks},
-                           {"frames", mc.frames},
-                           {"lost", mc.lost},
-                           {"mean_latency_ms", mc.mean_latency_ms},
-                           {"stopped", arm.error}});
+    nlohmann::json rj = {{"name", arm.name},
+                         {"tasks", arm.tasks},
+                         {"frames", mc.frames},
+                         {"lost", mc.lost},
+                         {"mean_latency_ms", mc.mean_latency_ms},
+                         {"stopped", arm.error},
+                         {"plant", a.ideal ? "ideal" : "as-built"}};
     // the report's figures, each robot's in its own database
     Hub& hub = *arm.hub;
+    if (arm.truth) {
+      // the virtual robot against the robot as built: the twin runs on the nominal
+      // description (no calibration here: docs/workcell.md), so this is the build's own error
+      (void)arm.db->flush();
+      const ToolErrorStats st = virtual_vs_truth(*arm.db, arm.model, arm.run, *arm.truth,
+                                                 sort_from_us, sort_to_us, nullptr);
+      if (st.count > 0) {
+        fmt::print(
+            "  {}: virtual -> true tool mean {:.2f} mm, p95 {:.2f} mm, max {:.2f} mm ({} "
+            "samples; as built, seed {})\n",
+            arm.name, m_to_mm(st.mean_m), m_to_mm(st.p95_m), m_to_mm(st.max_m), st.count,
+            arm.build_seed);
+        hub.record_metric(metric::kVirtTrueMeanMm, m_to_mm(st.mean_m), "mm");
+        hub.record_metric(metric::kVirtTrueMaxMm, m_to_mm(st.max_m), "mm");
+        rj["as_built_seed"] = arm.build_seed;
+        rj["virtual_true_tool_mean_mm"] = m_to_mm(st.mean_m);
+        rj["virtual_true_tool_p95_mm"] = m_to_mm(st.p95_m);
+        rj["virtual_true_tool_max_mm"] = m_to_mm(st.max_m);
+        rj["virtual_true_samples"] = st.count;
+      }
+    }
+    j["robots"].push_back(rj);
     if (auto lat = arm.db->latencies(arm.run); lat) {
       // one state report on the wire: about 55 bytes at 115200 baud (as the single demo)
       const LatencyFigures lf = latency_figures(*lat, 55.0 * 10.0 / 115200.0);

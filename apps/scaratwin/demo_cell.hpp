@@ -16,6 +16,11 @@ struct CellDemoOptions {
   int http_port = 8080;
   double robot_speed = 1.0;
   unsigned seed = 7;
+  // Each robot is a robot as built (scaratwin-robot --plant as-built): robot i's build is drawn
+  // with seed as_built_seed + i (-1: its description's [as_built] seed + i). `ideal`: the
+  // exact robots (--plant ideal) instead.
+  long long as_built_seed = -1;
+  bool ideal = false;
   int cubes = 3;
   bool keep_open = false;
 };

@@ -1,5 +1,6 @@
 #include "scaratwin/hub/robot_interface.hpp"
 
+#include <cstdlib>
 #include <utility>
 
 #include <fmt/format.h>
@@ -89,9 +90,16 @@ class EmulatedRobot final : public RobotInterface {
       return hub_error(fmt::format("emulated robot ({}): {}", exe.string(), line.error().message));
     }
     pty_ = line->substr(line->find("pty: ") + 5);
+    // printed right after the pty (an emulator without one says nothing: port 0)
+    if (auto side = process_->wait_for_line("side channel: ", std::chrono::milliseconds(5000));
+        side) {
+      const int port = std::atoi(side->substr(side->rfind(':') + 1).c_str());
+      if (port > 0 && port < 65536) side_port_ = static_cast<std::uint16_t>(port);
+    }
     serial_.set_device(pty_);
     return serial_.configure(io, timeout);
   }
+  std::uint16_t side_channel_port() const override { return side_port_; }
 
   tr::RobotChannel& channel() override { return serial_.channel(); }
   tr::LinkCounters counters() const override { return serial_.counters(); }
@@ -106,6 +114,7 @@ class EmulatedRobot final : public RobotInterface {
   SerialRobot serial_;
   std::unique_ptr<ChildProcess> process_;
   std::string pty_;
+  std::uint16_t side_port_ = 0;
 };
 
 }  // namespace

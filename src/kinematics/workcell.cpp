@@ -55,6 +55,10 @@ Workcell single_robot_workcell(const RobotModel& model) {
   return w;
 }
 
+double distance_to_segment_xy(const Vec3& p, const Vec3& a, const Vec3& b) {
+  return point_segment({p[0], p[1]}, {a[0], a[1]}, {b[0], b[1]});
+}
+
 Vec3 base_to_world(const BasePose& b, const Vec3& p) {
   const double c = std::cos(b.yaw_rad), s = std::sin(b.yaw_rad);
   return {b.x_m + c * p[0] - s * p[1], b.y_m + s * p[0] + c * p[1], b.z_m + p[2]};

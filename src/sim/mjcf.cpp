@@ -67,6 +67,27 @@ GripperGeometry gripper_geometry(const RobotModel& model) {
 
 namespace {
 
+// The arm's parts across its centre line (m): the carriage box's half width, the links'
+// capsule radii, the palm box's half extents along the gripper's x and y axes.
+constexpr double kCarriageHalfWidthM = 0.022;
+constexpr double kLink1RadiusM = 0.018;
+constexpr double kLink2RadiusM = 0.015;
+double palm_half_x_m(const GripperGeometry& g) {
+  return 0.5 * g.closed_gap_m + g.open_travel_m + 0.008;
+}
+double palm_half_y_m(const GripperGeometry& g) { return 0.6 * g.finger_depth_m; }
+
+}  // namespace
+
+double arm_half_width_m(const RobotModel& model) {
+  const GripperGeometry g = gripper_geometry(model);
+  return std::max({kCarriageHalfWidthM, kLink1RadiusM, kLink2RadiusM,
+                   std::hypot(palm_half_x_m(g), palm_half_y_m(g)),
+                   kFlagOffsetM + kFlagMarkerRadiusM});
+}
+
+namespace {
+
 // The options and the camera, checked before anything is written.
 Status check_options(const SceneModel& sc, const MjcfOptions& o) {
   if (o.cubes_per_color < 1 || o.cubes_per_color > 64) {
@@ -229,7 +250,7 @@ std::string arm(const RobotModel& model, const std::string& p, const std::string
       "damping=\"120\" armature=\"0.05\"/>\n",
       in(1), p, num(model.limits[0].min), num(model.limits[0].max));
   x += fmt::format("{}<geom type=\"box\" size=\"{}\" pos=\"{}\" mass=\"0.35\" rgba=\"{}\"/>\n",
-                   in(1), vec(0.5 * dh[0].a_m + 0.02, 0.022, 0.012),
+                   in(1), vec(0.5 * dh[0].a_m + 0.02, kCarriageHalfWidthM, 0.012),
                    vec(0.5 * dh[0].a_m - 0.02, 0, 0), arm_rgba);
   x += fmt::format("{}<body name=\"{}link1\" pos=\"{}\" quat=\"{}\">\n", in(1), p,
                    vec(dh[0].a_m, 0, 0), quat_xz(dh[0].alpha_rad, dh[1].theta_rad));
@@ -238,9 +259,9 @@ std::string arm(const RobotModel& model, const std::string& p, const std::string
       "damping=\"0.8\" armature=\"0.002\"/>\n",
       in(2), p);
   x += fmt::format(
-      "{}<geom type=\"capsule\" fromto=\"0 0 0 {}\" size=\"0.018\" mass=\"0.2\" "
+      "{}<geom type=\"capsule\" fromto=\"0 0 0 {}\" size=\"{}\" mass=\"0.2\" "
       "rgba=\"{}\"/>\n",
-      in(2), vec(dh[1].a_m, 0, 0), arm_rgba);
+      in(2), vec(dh[1].a_m, 0, 0), fmt::format("{}", kLink1RadiusM), arm_rgba);
   x += fmt::format(
       "{}<geom type=\"cylinder\" fromto=\"{} {}\" size=\"0.012\" mass=\"0.01\" "
       "rgba=\"0.3 0.3 0.33 1\"/>\n",
@@ -252,9 +273,9 @@ std::string arm(const RobotModel& model, const std::string& p, const std::string
       "damping=\"0.3\" armature=\"0.001\"/>\n",
       in(3), p);
   x += fmt::format(
-      "{}<geom type=\"capsule\" fromto=\"0 0 0 {}\" size=\"0.015\" mass=\"0.15\" "
+      "{}<geom type=\"capsule\" fromto=\"0 0 0 {}\" size=\"{}\" mass=\"0.15\" "
       "rgba=\"{}\"/>\n",
-      in(3), vec(dh[2].a_m, 0, 0), arm_rgba);
+      in(3), vec(dh[2].a_m, 0, 0), fmt::format("{}", kLink2RadiusM), arm_rgba);
   x += fmt::format("{}<body name=\"{}{}\" pos=\"{}\" quat=\"{}\">\n", in(3), p, kGripperBody,
                    vec(dh[2].a_m, 0, dh[2].d_m), quat_xz(dh[2].alpha_rad, dh[3].theta_rad));
   x += fmt::format(
@@ -268,10 +289,9 @@ std::string arm(const RobotModel& model, const std::string& p, const std::string
       "{}<geom type=\"cylinder\" fromto=\"0 0 0.004 {}\" size=\"0.008\" mass=\"0.04\" "
       "rgba=\"0.3 0.3 0.33 1\"/>\n",
       in(4), vec(dh[3].a_m, 0, palm_z));
-  x += fmt::format(
-      "{}<geom type=\"box\" size=\"{}\" pos=\"{}\" mass=\"0.02\" rgba=\"{}\"/>\n", in(4),
-      vec(0.5 * grip.closed_gap_m + grip.open_travel_m + 0.008, 0.6 * grip.finger_depth_m, 0.004),
-      vec(dh[3].a_m, 0, palm_z), arm_rgba);
+  x += fmt::format("{}<geom type=\"box\" size=\"{}\" pos=\"{}\" mass=\"0.02\" rgba=\"{}\"/>\n",
+                   in(4), vec(palm_half_x_m(grip), palm_half_y_m(grip), 0.004),
+                   vec(dh[3].a_m, 0, palm_z), arm_rgba);
   x += fmt::format(
       "{}<site name=\"{}{}\" pos=\"{}\" quat=\"{}\" size=\"0.003\" "
       "rgba=\"1 0.6 0 0.6\"/>\n",

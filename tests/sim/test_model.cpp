@@ -1,5 +1,8 @@
 // The generated MuJoCo model against the DH kinematics, and MuJoCo errors as our errors.
+#include <array>
+#include <cmath>
 #include <random>
+#include <vector>
 
 #include <gtest/gtest.h>
 #include <mujoco/mujoco.h>
@@ -7,6 +10,7 @@
 #include "mj_guard.hpp"
 #include "scaratwin/config/robot_config.hpp"
 #include "scaratwin/kinematics/kinematics.hpp"
+#include "scaratwin/kinematics/workcell.hpp"
 #include "scaratwin/sim/mjcf.hpp"
 #include "scaratwin/sim/simulation.hpp"
 
@@ -96,6 +100,81 @@ TEST(SimModel, RejectsBadOptionsNamingTheValue) {
   auto x = make_mjcf(paper_robot(), o);
   ASSERT_FALSE(x.ok());
   EXPECT_NE(x.error().message.find("cubes_per_color = 0"), std::string::npos);
+}
+
+// arm_half_width_m against the compiled model: at random poses, every corner and rim point
+// of the swinging parts' geoms (the links, the wrist and its fingers) lies within that
+// distance of the arm's centre line (workcell.hpp's base -> shoulder -> elbow -> wrist ->
+// tool polyline) seen from above, and some point reaches it: with the paper's 20 mm cube the
+// marker flag (25 mm out, 5 mm radius: 30 mm); with a 40 mm cube the palm's corner
+// (hypot(0.5 * 41 + 16 + 8, 0.6 * 32) = 48.47 mm).
+void expect_half_width(const RobotModel& robot, double want_m) {
+  const double w = arm_half_width_m(robot);
+  EXPECT_NEAR(w, want_m, 1e-5);
+  auto sim = Simulation::create(robot);
+  ASSERT_TRUE(sim.ok()) << sim.error().message;
+  const mjModel* m = (*sim)->model();
+  const mjData* d = (*sim)->data();
+  std::vector<bool> swinging(static_cast<std::size_t>(m->nbody), false);
+  for (const char* b : {"link1", "link2", kGripperBody, "finger_l_body", "finger_r_body"}) {
+    const int id = mj_name2id(m, mjOBJ_BODY, b);
+    ASSERT_GE(id, 0) << b;
+    swinging[static_cast<std::size_t>(id)] = true;
+  }
+  const Workcell cell = single_robot_workcell(robot);
+  std::mt19937_64 rng(7);
+  double reach = 0.0;
+  for (int i = 0; i < 50; ++i) {
+    JointVector q{};
+    for (int j = 0; j < kNumJoints; ++j) {
+      q[j] = std::uniform_real_distribution<double>(robot.limits[j].min, robot.limits[j].max)(rng);
+    }
+    ASSERT_TRUE((*sim)->set_joints(q).ok());
+    const auto line = arm_points(cell, 0, q);
+    for (int g = 0; g < m->ngeom; ++g) {
+      if (!swinging[static_cast<std::size_t>(m->geom_bodyid[g])]) continue;
+      const double* c = d->geom_xpos + 3 * g;
+      const double* r = d->geom_xmat + 9 * g;  // the geom's axes in W, row-major
+      const double* sz = m->geom_size + 3 * g;
+      // the geom's extreme points in its own frame
+      std::vector<std::array<double, 3>> local;
+      if (m->geom_type[g] == mjGEOM_BOX) {
+        for (int k = 0; k < 8; ++k) {
+          local.push_back(
+              {(k & 1 ? 1 : -1) * sz[0], (k & 2 ? 1 : -1) * sz[1], (k & 4 ? 1 : -1) * sz[2]});
+        }
+      } else {  // cylinder or capsule along its z axis: rims at both ends (capsule: the caps)
+        const double h = sz[1] + (m->geom_type[g] == mjGEOM_CAPSULE ? sz[0] : 0.0);
+        for (int k = 0; k < 64; ++k) {
+          const double a = 2 * M_PI * k / 64;
+          for (double z : {-h, h, -sz[1], sz[1]}) {
+            local.push_back({sz[0] * std::cos(a), sz[0] * std::sin(a), z});
+          }
+        }
+      }
+      for (const auto& p : local) {
+        std::array<double, 3> x{};
+        for (int a = 0; a < 3; ++a) {
+          x[a] = c[a] + r[3 * a] * p[0] + r[3 * a + 1] * p[1] + r[3 * a + 2] * p[2];
+        }
+        double off = INFINITY;
+        for (std::size_t k = 0; k + 1 < line.size(); ++k) {
+          off = std::min(off, distance_to_segment_xy(x, line[k], line[k + 1]));
+        }
+        reach = std::max(reach, off);
+      }
+    }
+  }
+  EXPECT_LE(reach, w + 1e-9);
+  EXPECT_GT(reach, w - 2e-4) << "some part reaches the half width";
+}
+
+TEST(SimModel, ArmHalfWidthIsTheFarthestSwingingPartFromTheCentreLine) {
+  RobotModel robot = config_robot();
+  ASSERT_NEAR(robot.scene.cube_size_m, 0.020, 1e-12);
+  expect_half_width(robot, 0.030);
+  robot.scene.cube_size_m = 0.040;
+  expect_half_width(robot, std::hypot(0.5 * 0.041 + 0.016 + 0.008, 0.6 * 0.032));
 }
 
 TEST(SimModel, UrdfHasTheFourJoints) {

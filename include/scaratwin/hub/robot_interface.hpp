@@ -12,6 +12,7 @@
 #pragma once
 
 #include <chrono>
+#include <cstdint>
 #include <filesystem>
 #include <memory>
 #include <string>
@@ -43,6 +44,10 @@ class RobotInterface {
   // Closes the channel, then the link (and stops what the interface started). Idempotent;
   // the destructor does it.
   virtual void shutdown() = 0;
+  // The emulated robot's side channel on 127.0.0.1 (docs/emulator.md: the truth of the robot
+  // as built, faults), configure() first; 0 for a robot without one (a real board). It is a
+  // measuring instrument for reports and tests: the hub never reads it.
+  virtual std::uint16_t side_channel_port() const { return 0; }
 };
 
 // A robot on a serial device (a board's /dev/ttyACM0, or a pty given by path).

@@ -73,6 +73,10 @@ std::array<std::array<double, 3>, 5> arm_points(const Workcell& workcell, int ro
 // The same at the robot's home pose.
 std::array<std::array<double, 3>, 5> home_arm_points(const Workcell& workcell, int robot);
 
+// The distance (m) from p to the segment a-b seen from above (in the xy plane; z ignored).
+double distance_to_segment_xy(const std::array<double, 3>& p, const std::array<double, 3>& a,
+                              const std::array<double, 3>& b);
+
 // The distance (m) between robot a's arm at q_a and robot b's at q_b seen from above: the
 // closest approach of their base -> shoulder -> elbow -> wrist -> tool polylines in W's xy
 // plane (0 when they cross). A SCARA's links sweep the same band of heights, so two arms that

@@ -67,6 +67,13 @@ struct GripperGeometry {
 };
 GripperGeometry gripper_geometry(const RobotModel& model);
 
+// How far the arm's parts reach sideways from its centre line seen from above (the base ->
+// shoulder -> elbow -> wrist polyline of workcell.hpp's arm_points), m: the widest of the
+// carriage, the two links and the palm (whose corner is farthest, turned any way about the
+// wrist axis) and the marker flag. Two arms whose centre lines keep twice this apart do not
+// touch.
+double arm_half_width_m(const RobotModel& model);
+
 // The MJCF text. Errors: invalid options (message names the option and the valid range).
 Result<std::string> make_mjcf(const RobotModel& model, const MjcfOptions& options = {});
 
