@@ -1,19 +1,42 @@
-// Helpers shared by the hub's end-to-end tests: a program run to its end (exit status and
-// output), and the port a simulator child process listens on.
+// Helpers shared by the hub's end-to-end tests: a folder of a test's own, a file's text, a
+// program run to its end (exit status and output), and the port a simulator child process
+// listens on.
 #pragma once
+
+#include <unistd.h>
 
 #include <chrono>
 #include <cstdint>
 #include <filesystem>
+#include <fstream>
+#include <sstream>
 #include <string>
 #include <vector>
 
+#include <fmt/format.h>
 #include <gtest/gtest.h>
 
 #include "scaratwin/core/result.hpp"
 #include "scaratwin/hub/process.hpp"
 
 namespace scaratwin::test {
+
+// An empty folder for a test: <temp>/scaratwin-<name>-<pid>, emptied first.
+inline std::filesystem::path fresh_dir(const std::string& name) {
+  const std::filesystem::path p =
+      std::filesystem::temp_directory_path() / fmt::format("scaratwin-{}-{}", name, getpid());
+  std::filesystem::remove_all(p);
+  std::filesystem::create_directories(p);
+  return p;
+}
+
+// The whole text of a file ("" when it cannot be read).
+inline std::string slurp(const std::filesystem::path& p) {
+  std::ifstream in(p);
+  std::stringstream ss;
+  ss << in.rdbuf();
+  return ss.str();
+}
 
 struct Outcome {
   int status = -1;

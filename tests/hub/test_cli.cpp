@@ -34,12 +34,7 @@ using namespace std::chrono_literals;
 
 const fs::path kBin = SCARATWIN_BIN_DIR;
 
-fs::path fresh_dir(const char* name) {
-  fs::path p = fs::temp_directory_path() / fmt::format("scaratwin-cli-{}-{}", name, getpid());
-  fs::remove_all(p);
-  fs::create_directories(p);
-  return p;
-}
+fs::path fresh_dir(const char* name) { return test::fresh_dir(std::string("cli-") + name); }
 
 using test::Outcome;
 

@@ -40,19 +40,8 @@ using namespace std::chrono_literals;
 
 const fs::path kBin = SCARATWIN_BIN_DIR;
 
-fs::path fresh_dir(const char* name) {
-  fs::path p = fs::temp_directory_path() / fmt::format("scaratwin-{}-{}", name, getpid());
-  fs::remove_all(p);
-  fs::create_directories(p);
-  return p;
-}
-
-std::string slurp(const fs::path& p) {
-  std::ifstream in(p);
-  std::stringstream ss;
-  ss << in.rdbuf();
-  return ss.str();
-}
+using test::fresh_dir;
+using test::slurp;
 
 double metric_of(TwinDb& db, int64_t run, const std::string& name) {
   auto m = db.metrics(run);

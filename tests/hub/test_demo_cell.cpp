@@ -1,16 +1,12 @@
 // End to end, as a user runs it: `scaratwin demo --robots 2`, two robots of a workcell on one
 // table (issue 13), each our firmware in its own AVR emulator with a hub of its own, mirrored
 // into one simulator; and the refusals of a robot count the workcell does not have.
-#include <unistd.h>
-
 #include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <cstdint>
 #include <cstdio>
 #include <filesystem>
-#include <fstream>
-#include <sstream>
 #include <string>
 #include <utility>
 #include <vector>
@@ -20,6 +16,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include "hub_test_support.hpp"
 #include "scaratwin/config/workcell_config.hpp"
 #include "scaratwin/hub/process.hpp"
 #include "scaratwin/hub/twin_db.hpp"
@@ -33,19 +30,8 @@ using namespace std::chrono_literals;
 
 const fs::path kBin = SCARATWIN_BIN_DIR;
 
-fs::path fresh_dir(const char* name) {
-  fs::path p = fs::temp_directory_path() / fmt::format("scaratwin-{}-{}", name, getpid());
-  fs::remove_all(p);
-  fs::create_directories(p);
-  return p;
-}
-
-std::string slurp(const fs::path& p) {
-  std::ifstream in(p);
-  std::stringstream ss;
-  ss << in.rdbuf();
-  return ss.str();
-}
+using test::fresh_dir;
+using test::slurp;
 
 // Two emulated robots on one table (config/two_arms_trays.toml) sort the cubes together, each
 // with its own hub, mirrored into one simulator. Both arms get work (the tasks are split

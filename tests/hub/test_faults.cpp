@@ -22,6 +22,7 @@
 #include <gtest/gtest.h>
 #include <sqlite3.h>
 
+#include "hub_test_support.hpp"
 #include "scaratwin/hub/process.hpp"
 
 namespace scaratwin {
@@ -33,12 +34,7 @@ using namespace std::chrono_literals;
 const fs::path kBin = SCARATWIN_BIN_DIR;
 constexpr std::int64_t kHomeZ = 24667;  // Z motor count at the home pose (d1 = 0.12 m)
 
-fs::path fresh_dir(const char* name) {
-  fs::path p = fs::temp_directory_path() / fmt::format("scaratwin-{}-{}", name, getpid());
-  fs::remove_all(p);
-  fs::create_directories(p);
-  return p;
-}
+using test::fresh_dir;
 
 int connect_loopback(int port) {
   const int fd = ::socket(AF_INET, SOCK_STREAM, 0);

@@ -47,12 +47,7 @@ const fs::path kBin = SCARATWIN_BIN_DIR;
 const fs::path kConfig = SCARATWIN_CONFIG_FILE;
 const fs::path kWorkcell = SCARATWIN_WORKCELL_FILE;
 
-fs::path fresh_dir(const char* name) {
-  fs::path p = fs::temp_directory_path() / fmt::format("scaratwin-robots-{}-{}", name, getpid());
-  fs::remove_all(p);
-  fs::create_directories(p);
-  return p;
-}
+fs::path fresh_dir(const char* name) { return test::fresh_dir(std::string("robots-") + name); }
 
 RobotModel paper_model() {
   auto m = load_robot_config(kConfig);
