@@ -13,6 +13,7 @@
 
 #include <fmt/format.h>
 
+#include "admission.hpp"
 #include "scaratwin/protocol/codec.hpp"
 #include "scaratwin/transport/io_thread.hpp"
 #include "scaratwin/transport/tcp.hpp"
@@ -58,19 +59,14 @@ struct SimServer::Impl {
   // per robot: the hash of its description, which the hello reply carries
   std::vector<std::string> descriptions;
 
-  // Who controls what (docs/security.md): the link's controlling peer drives the robot its
-  // hello named, or every robot (a hello naming none); each further controller names another
-  // robot and is served apart. Io thread only (admission, the link's handler, `closed`).
-  // Written under claims_mutex (robot_controlled() reads them from any thread).
-  mutable std::mutex claims_mutex;
-  std::optional<int> session_robot;
-  std::vector<char> served_robot;  // per robot: a controller served apart drives it
+  // Who controls what (admission.hpp, docs/security.md).
+  ControllerClaims claims;
 
   Impl(World& w, ServerOptions o)
       : world(w),
         options(std::move(o)),
         stream_first_us(static_cast<std::size_t>(w.robot_count()), 0),
-        served_robot(static_cast<std::size_t>(w.robot_count()), 0) {
+        claims(w.robot_count()) {
     w.with_simulation([&](Simulation& s) {
       for (int r = 0; r < s.robot_count(); ++r)
         descriptions.push_back(description_hash(s.robot(r)));
@@ -430,43 +426,24 @@ struct SimServer::Impl {
                    peer.c_str(), *robot);
       return decision(Admission::kRefuse, std::move(reply));
     }
-    std::unique_lock claims(claims_mutex);
-    const bool any_served =
-        std::any_of(served_robot.begin(), served_robot.end(), [](char c) { return c != 0; });
-    if (!controller &&
-        !(any_served && (!robot || served_robot[static_cast<std::size_t>(*robot)]))) {
-      session_robot = robot;
-      return decision(Admission::kControl);
+    switch (claims.claim(robot, controller)) {
+      case ControllerClaims::Verdict::kControl:
+        return decision(Admission::kControl);
+      case ControllerClaims::Verdict::kServe: {
+        const int r = *robot;
+        std::fprintf(stderr, "scaratwin-sim: %s controls robot %d\n", peer.c_str(), r);
+        transport::AdmissionDecision d = decision(Admission::kServe);
+        d.serve = [this, r](const transport::Frame& f) { return handle_frame(f.kind, f.line, r); };
+        d.closed = [this, r] { claims.release(r); };
+        return d;
+      }
+      case ControllerClaims::Verdict::kInUse:
+        break;
     }
-    // a further controller: of one robot that nobody drives yet
-    if (controller && robot && session_robot && *session_robot != *robot &&
-        !served_robot[static_cast<std::size_t>(*robot)]) {
-      const int r = *robot;
-      served_robot[static_cast<std::size_t>(r)] = 1;
-      std::fprintf(stderr, "scaratwin-sim: %s controls robot %d\n", peer.c_str(), r);
-      transport::AdmissionDecision d = decision(Admission::kServe);
-      d.serve = [this, r](const transport::Frame& f) { return handle_frame(f.kind, f.line, r); };
-      d.closed = [this, r] {
-        std::lock_guard lock(claims_mutex);
-        served_robot[static_cast<std::size_t>(r)] = 0;
-      };
-      return d;
-    }
-    claims.unlock();
     return refuse(kAccessInUse, robot ? "another client controls that robot (an observer says "
                                         "HI,1,observe,)"
                                       : "another client controls the simulator (an observer "
                                         "says HI,1,observe,)");
-  }
-
-  static bool looks_like_http(std::string_view first) {
-    static constexpr std::string_view kMethods[] = {"GET ",    "POST ",    "PUT ",     "HEAD ",
-                                                    "DELETE ", "OPTIONS ", "CONNECT ", "PATCH ",
-                                                    "TRACE ",  "PRI "};
-    for (std::string_view m : kMethods) {
-      if (first.substr(0, m.size()) == m) return true;
-    }
-    return false;
   }
 
   // A robot-addressed packet (protocol v2) for a robot the simulator does not have is
@@ -585,7 +562,7 @@ Result<std::unique_ptr<SimServer>> SimServer::create(World& world, const ServerO
   impl.link = std::move(*link);
   transport::TcpServer* raw = impl.link.get();
   impl.link->set_packet_handler([&impl, raw](transport::RxPacket&& p) {
-    std::string reply = impl.handle_frame(p.kind, p.line, impl.session_robot);
+    std::string reply = impl.handle_frame(p.kind, p.line, impl.claims.session_robot());
     if (!reply.empty()) (void)raw->send(std::move(reply));
   });
   return s;
@@ -595,11 +572,7 @@ std::uint16_t SimServer::port() const { return impl_->link->port(); }
 bool SimServer::peer_connected() const { return impl_->link->connected(); }
 
 bool SimServer::robot_controlled(int robot) const {
-  const Impl& impl = *impl_;
-  std::lock_guard lock(impl.claims_mutex);
-  if (robot < 0 || robot >= static_cast<int>(impl.served_robot.size())) return false;
-  if (impl.served_robot[static_cast<std::size_t>(robot)]) return true;
-  return impl.link->connected() && (!impl.session_robot || *impl.session_robot == robot);
+  return impl_->claims.controlled(robot, impl_->link->connected());
 }
 
 ServerCounters SimServer::counters() const {
