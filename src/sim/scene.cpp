@@ -6,15 +6,11 @@
 #include <mujoco/mujoco.h>
 
 #include "scaratwin/sim/simulation.hpp"
+#include "sim_internal.hpp"
 
 namespace scaratwin::sim {
-namespace {
 
-Error sim_error(SimError code, std::string message) {
-  return Error{static_cast<int>(code), std::move(message)};
-}
-
-}  // namespace
+using detail::sim_error;
 
 void Simulation::park(int k) {
   const int q = cube_qpos_[k];
