@@ -135,7 +135,7 @@ trap - EXIT
 # simulator run alone (RUN_SERIAL)
 if [[ "${SCARATWIN_TEST_TSAN:-1}" != 0 ]]; then
   tsan_suites='LineSplitter|Tcp|IoThread|Serial|SequenceTracker|LinkCounters|Statements|Channel'
-  tsan_suites+='|WebServer|HttpTest|Feed|Commands|FakeRobotTest|FakeRobotHub|HubRobots'
+  tsan_suites+='|WebServer|HttpTest|Feed|Commands|FakeRobotTest|FakeRobotHub|HubRobots|TwinDbThreads'
   if ! ctest --preset tsan --no-tests=error -j "$jobs" -R "^(${tsan_suites})\\."; then
     failed_list=$(failed_tests build/tsan)
     save_failed_output build/tsan

@@ -89,11 +89,6 @@ Status step_done(sqlite3* db, sqlite3_stmt* s, std::string_view what) {
 }
 
 // Prepared statements, cached per SQL text for the lifetime of the connection.
-std::map<std::pair<sqlite3*, const char*>, sqlite3_stmt*>& statement_cache() {
-  static std::map<std::pair<sqlite3*, const char*>, sqlite3_stmt*> cache;
-  return cache;
-}
-
 void bind_text(sqlite3_stmt* s, int i, std::string_view v) {
   sqlite3_bind_text(s, i, v.data(), static_cast<int>(v.size()), SQLITE_TRANSIENT);
 }
@@ -132,15 +127,7 @@ TwinDb::TwinDb(sqlite3* db, std::filesystem::path path) : db_(db), path_(std::mo
 
 TwinDb::~TwinDb() {
   (void)flush();
-  auto& cache = statement_cache();
-  for (auto it = cache.begin(); it != cache.end();) {
-    if (it->first.first == db_) {
-      sqlite3_finalize(it->second);
-      it = cache.erase(it);
-    } else {
-      ++it;
-    }
-  }
+  for (auto& [sql, s] : statements_) sqlite3_finalize(s);
   sqlite3_close(db_);
 }
 
@@ -200,9 +187,7 @@ Status TwinDb::exec(const char* sql) {
 }
 
 Result<sqlite3_stmt*> TwinDb::prepare(const char* sql) {
-  auto& cache = statement_cache();
-  auto key = std::make_pair(db_, sql);
-  if (auto it = cache.find(key); it != cache.end()) {
+  if (auto it = statements_.find(sql); it != statements_.end()) {
     sqlite3_reset(it->second);
     sqlite3_clear_bindings(it->second);
     return it->second;
@@ -211,7 +196,7 @@ Result<sqlite3_stmt*> TwinDb::prepare(const char* sql) {
   if (sqlite3_prepare_v3(db_, sql, -1, SQLITE_PREPARE_PERSISTENT, &s, nullptr) != SQLITE_OK) {
     return db_error(db_, "prepare");
   }
-  cache[key] = s;
+  statements_[sql] = s;
   return s;
 }
 
@@ -227,6 +212,7 @@ Status TwinDb::begin_batch() {
 }
 
 Status TwinDb::flush() {
+  std::lock_guard<std::recursive_mutex> lock(mu_);
   if (!in_batch_) return Ok{};
   in_batch_ = false;
   pending_ = 0;
@@ -235,6 +221,7 @@ Status TwinDb::flush() {
 
 Result<int64_t> TwinDb::begin_run(std::string_view kind, std::string_view label, int64_t parent,
                                   int64_t ref) {
+  std::lock_guard<std::recursive_mutex> lock(mu_);
   if (Status f = flush(); !f) return f.error();
   auto s =
       prepare("INSERT INTO runs (parent, ref, kind, label, started_unix_s) VALUES (?, ?, ?, ?, ?)");
@@ -259,6 +246,7 @@ Result<int64_t> TwinDb::begin_run(std::string_view kind, std::string_view label,
 }
 
 Status TwinDb::end_run(int64_t run, std::string_view status, double duration_s) {
+  std::lock_guard<std::recursive_mutex> lock(mu_);
   if (Status f = flush(); !f) return f;
   auto s = prepare("UPDATE runs SET status = ?, duration_s = ? WHERE id = ?");
   if (!s) return s.error();
@@ -269,6 +257,7 @@ Status TwinDb::end_run(int64_t run, std::string_view status, double duration_s) 
 }
 
 Status TwinDb::add_sample(int64_t run, SampleSource source, const JointRecord& r) {
+  std::lock_guard<std::recursive_mutex> lock(mu_);
   if (Status b = begin_batch(); !b) return b;
   auto s = prepare(
       "INSERT INTO samples (run, source, t_s, seq, d1_m, q2_rad, q3_rad, q4_rad, grip_deg) "
@@ -284,6 +273,7 @@ Status TwinDb::add_sample(int64_t run, SampleSource source, const JointRecord& r
 }
 
 Status TwinDb::add_command(int64_t run, double t_s, std::string_view link, std::string_view text) {
+  std::lock_guard<std::recursive_mutex> lock(mu_);
   if (Status b = begin_batch(); !b) return b;
   auto s = prepare("INSERT INTO commands (run, t_s, link, text) VALUES (?, ?, ?, ?)");
   if (!s) return s.error();
@@ -295,6 +285,7 @@ Status TwinDb::add_command(int64_t run, double t_s, std::string_view link, std::
 }
 
 Status TwinDb::add_event(int64_t run, double t_s, std::string_view kind, std::string_view detail) {
+  std::lock_guard<std::recursive_mutex> lock(mu_);
   if (Status b = begin_batch(); !b) return b;
   auto s = prepare("INSERT INTO events (run, t_s, kind, detail) VALUES (?, ?, ?, ?)");
   if (!s) return s.error();
@@ -306,6 +297,7 @@ Status TwinDb::add_event(int64_t run, double t_s, std::string_view kind, std::st
 }
 
 Status TwinDb::add_latency(int64_t run, const LatencyRecord& r) {
+  std::lock_guard<std::recursive_mutex> lock(mu_);
   if (Status b = begin_batch(); !b) return b;
   auto s = prepare(
       "INSERT INTO latencies (run, seq, device_t_us, hub_rx_us, sim_apply_us) "
@@ -320,6 +312,7 @@ Status TwinDb::add_latency(int64_t run, const LatencyRecord& r) {
 }
 
 Status TwinDb::add_image(int64_t run, double t_s, std::string_view name, const std::string& png) {
+  std::lock_guard<std::recursive_mutex> lock(mu_);
   if (Status b = begin_batch(); !b) return b;
   auto s = prepare("INSERT INTO images (run, t_s, name, png) VALUES (?, ?, ?, ?)");
   if (!s) return s.error();
@@ -331,6 +324,7 @@ Status TwinDb::add_image(int64_t run, double t_s, std::string_view name, const s
 }
 
 Status TwinDb::add_metric(int64_t run, std::string_view name, double value, std::string_view unit) {
+  std::lock_guard<std::recursive_mutex> lock(mu_);
   if (Status b = begin_batch(); !b) return b;
   auto s = prepare("INSERT INTO metrics (run, name, value, unit) VALUES (?, ?, ?, ?)");
   if (!s) return s.error();
@@ -364,6 +358,7 @@ RunInfo read_run(sqlite3_stmt* s) {
 }  // namespace
 
 Result<std::vector<RunInfo>> TwinDb::runs() {
+  std::lock_guard<std::recursive_mutex> lock(mu_);
   if (Status f = flush(); !f) return f.error();
   auto s = prepare(
       "SELECT id, kind, label, status, started_unix_s, duration_s, parent, ref "
@@ -375,6 +370,7 @@ Result<std::vector<RunInfo>> TwinDb::runs() {
 }
 
 Result<RunInfo> TwinDb::run(int64_t id) {
+  std::lock_guard<std::recursive_mutex> lock(mu_);
   if (Status f = flush(); !f) return f.error();
   auto s = prepare(
       "SELECT id, kind, label, status, started_unix_s, duration_s, parent, ref "
@@ -388,6 +384,7 @@ Result<RunInfo> TwinDb::run(int64_t id) {
 }
 
 Result<std::vector<RunInfo>> TwinDb::children(int64_t parent) {
+  std::lock_guard<std::recursive_mutex> lock(mu_);
   if (Status f = flush(); !f) return f.error();
   auto s = prepare(
       "SELECT id, kind, label, status, started_unix_s, duration_s, parent, ref "
@@ -400,6 +397,7 @@ Result<std::vector<RunInfo>> TwinDb::children(int64_t parent) {
 }
 
 Result<std::vector<JointRecord>> TwinDb::samples(int64_t run, SampleSource source) {
+  std::lock_guard<std::recursive_mutex> lock(mu_);
   if (Status f = flush(); !f) return f.error();
   auto s = prepare(
       "SELECT t_s, seq, d1_m, q2_rad, q3_rad, q4_rad, grip_deg FROM samples "
@@ -420,6 +418,7 @@ Result<std::vector<JointRecord>> TwinDb::samples(int64_t run, SampleSource sourc
 }
 
 Result<std::vector<LatencyRecord>> TwinDb::latencies(int64_t run) {
+  std::lock_guard<std::recursive_mutex> lock(mu_);
   if (Status f = flush(); !f) return f.error();
   auto s = prepare(
       "SELECT seq, device_t_us, hub_rx_us, sim_apply_us FROM latencies "
@@ -435,6 +434,7 @@ Result<std::vector<LatencyRecord>> TwinDb::latencies(int64_t run) {
 }
 
 Result<std::vector<MetricRecord>> TwinDb::metrics(int64_t run) {
+  std::lock_guard<std::recursive_mutex> lock(mu_);
   if (Status f = flush(); !f) return f.error();
   auto s = prepare("SELECT name, value, unit FROM metrics WHERE run = ? ORDER BY rowid");
   if (!s) return s.error();
@@ -447,6 +447,7 @@ Result<std::vector<MetricRecord>> TwinDb::metrics(int64_t run) {
 }
 
 Result<std::vector<std::pair<double, std::string>>> TwinDb::events(int64_t run) {
+  std::lock_guard<std::recursive_mutex> lock(mu_);
   if (Status f = flush(); !f) return f.error();
   auto s = prepare("SELECT t_s, kind, detail FROM events WHERE run = ? ORDER BY rowid");
   if (!s) return s.error();
@@ -459,6 +460,7 @@ Result<std::vector<std::pair<double, std::string>>> TwinDb::events(int64_t run) 
 }
 
 Result<int64_t> TwinDb::count(std::string_view table, int64_t run) {
+  std::lock_guard<std::recursive_mutex> lock(mu_);
   static constexpr std::string_view kTables[] = {"samples",   "commands", "events",
                                                  "latencies", "images",   "metrics"};
   if (std::find(std::begin(kTables), std::end(kTables), table) == std::end(kTables)) {
@@ -477,6 +479,7 @@ Result<int64_t> TwinDb::count(std::string_view table, int64_t run) {
 }
 
 Status TwinDb::export_csv(int64_t run, const std::filesystem::path& dir) {
+  std::lock_guard<std::recursive_mutex> lock(mu_);
   if (Status f = flush(); !f) return f;
   std::error_code ec;
   std::filesystem::create_directories(dir, ec);

@@ -9,7 +9,9 @@
 
 #include <cstdint>
 #include <filesystem>
+#include <map>
 #include <memory>
+#include <mutex>
 #include <string>
 #include <string_view>
 #include <vector>
@@ -60,6 +62,8 @@ struct MetricRecord {
   std::string unit;
 };
 
+// Safe to share between threads: every public member holds the database's own lock (a hub
+// records from its I/O thread while a command reads figures from the same database).
 class TwinDb {
  public:
   // Opens or creates the database file (and its tables). A run left 'running' by a process
@@ -107,8 +111,10 @@ class TwinDb {
   Status begin_batch();
   Result<sqlite3_stmt*> prepare(const char* sql);
 
+  std::recursive_mutex mu_;  // guards everything below (public members may call each other)
   sqlite3* db_;
   std::filesystem::path path_;
+  std::map<const char*, sqlite3_stmt*> statements_;  // prepared once, by their literal
   bool in_batch_ = false;
   int pending_ = 0;
 };
