@@ -63,10 +63,6 @@ double uart_baud(int nominal) {
   return 16e6 / 8.0 / static_cast<double>(ubrr + 1);
 }
 
-// One state report on the wire (about 55 bytes with the line end, 10 bits a byte), as the
-// demo takes it: the time no frame can beat.
-double report_wire_s(double baud) { return 55.0 * 10.0 / baud; }
-
 struct RateResult {
   int nominal = 0;
   double baud = 0.0;
@@ -133,8 +129,8 @@ Result<RateResult> measure(const RobotModel& model, const BenchArgs& a, int nomi
   RateResult r;
   r.nominal = nominal;
   r.baud = uart_baud(nominal);
-  r.wire_ms = report_wire_s(r.baud) * 1e3;
-  const LatencyFigures lf = latency_figures(*lat, report_wire_s(r.baud));
+  r.wire_ms = state_report_wire_s(r.baud) * 1e3;
+  const LatencyFigures lf = latency_figures(*lat, state_report_wire_s(r.baud));
   r.frames = lf.device_to_sim_ms.count;
   r.lost = static_cast<std::int64_t>(after.lost - before.lost);
   r.latency_ms = lf.device_to_sim_ms;

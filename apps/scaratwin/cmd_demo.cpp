@@ -45,6 +45,7 @@
 #include "scaratwin/hub/report.hpp"
 #include "scaratwin/hub/tasks.hpp"
 #include "scaratwin/hub/tool_tracker.hpp"
+#include "scaratwin/transport/serial.hpp"
 #include "scaratwin/vision/webcam.hpp"
 
 namespace scaratwin::cli {
@@ -189,8 +190,7 @@ Result<DemoOutcome> run_phases(Hub& hub, TwinDb& db, const DemoArgs& a, std::int
     out.lost_frames += after.lost - before.lost;
     auto lat = db.latencies(*run);
     if (lat) {
-      // one state report on the wire: about 55 bytes at 115200 baud.
-      const LatencyFigures lf = latency_figures(*lat, 55.0 * 10.0 / 115200.0);
+      const LatencyFigures lf = latency_figures(*lat, state_report_wire_s(transport::kDefaultBaud));
       out.latency = lf;
       hub.record_metric(metric::kFrames, static_cast<double>(lf.device_to_sim_ms.count), "frames");
       hub.record_metric(metric::kLatencyMeanMs, lf.device_to_sim_ms.mean, "ms");

@@ -34,6 +34,7 @@
 #include "scaratwin/kinematics/workcell.hpp"
 #include "scaratwin/sim/mjcf.hpp"
 #include "scaratwin/trajectory/workcell_plan.hpp"
+#include "scaratwin/transport/serial.hpp"
 
 namespace scaratwin::cli {
 namespace {
@@ -259,7 +260,7 @@ int run_cell_demo(const CellDemoOptions& a) {
     if (!a.ideal) {
       // the truth of the robot as built: read only for the figures, as a tape measure is
       if (const std::uint16_t side = arm.hub->robot_interface().side_channel_port(); side != 0) {
-        auto t = TruthRecorder::start(side, 200.0);
+        auto t = TruthRecorder::start(side, TruthRecorder::kDemoHz);
         if (!t) {
           std::fprintf(stderr, "scaratwin demo: %s: %s\n", r.name.c_str(),
                        t.error().message.c_str());
@@ -446,8 +447,7 @@ int run_cell_demo(const CellDemoOptions& a) {
     }
     j["robots"].push_back(rj);
     if (auto lat = arm.db->latencies(arm.run); lat) {
-      // one state report on the wire: about 55 bytes at 115200 baud (as the single demo)
-      const LatencyFigures lf = latency_figures(*lat, 55.0 * 10.0 / 115200.0);
+      const LatencyFigures lf = latency_figures(*lat, state_report_wire_s(transport::kDefaultBaud));
       hub.record_metric(metric::kFrames, static_cast<double>(lf.device_to_sim_ms.count), "frames");
       hub.record_metric(metric::kLatencyMeanMs, lf.device_to_sim_ms.mean, "ms");
       hub.record_metric(metric::kLatencyP99Ms, lf.device_to_sim_ms.p99, "ms");

@@ -60,6 +60,9 @@ class EmulatorSide {
 // Records the truth at `hz` on its own connection, in its own thread, until destroyed.
 class TruthRecorder {
  public:
+  // The demos' rate: the firmware's state reports come at 100 Hz, so every report has a truth
+  // sample within 2.5 ms of it.
+  static constexpr double kDemoHz = 200.0;
   static Result<std::unique_ptr<TruthRecorder>> start(std::uint16_t port, double hz);
   ~TruthRecorder();
   // Samples taken between two CLOCK_MONOTONIC times (us).

@@ -24,7 +24,7 @@ struct RigOptions {
   double robot_speed = 1.0;
   std::optional<std::uint64_t> as_built_seed;  // the emulated robot's build
   std::string camera;                          // a real robot's webcam as host:port
-  double truth_hz = 200.0;                     // the emulated robot's truth recorder
+  double truth_hz = TruthRecorder::kDemoHz;    // the emulated robot's truth recorder
   std::string mqtt;        // the broker whose fleet the simulator's fleet page shows (empty: none)
   bool companion = false;  // the simulator also serves the paper's companion TCP dialect
 };

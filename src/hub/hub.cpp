@@ -95,8 +95,7 @@ Hub::Hub(const RobotModel& model, const HubOptions& options, TwinDb* db)
       options_(options),
       db_(db),
       report_dir_(homed_directions(model)),
-      // a state report's wire time as the demo's report takes it (55 bytes of 10 bits)
-      sample_clock_(100, 55.0 * 10.0 / std::max(1u, options.baud)) {}
+      sample_clock_(100, state_report_wire_s(std::max(1u, options.baud))) {}
 
 Hub::~Hub() {
   {

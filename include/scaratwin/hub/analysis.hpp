@@ -40,6 +40,10 @@ struct LatencyFigures {
 };
 LatencyFigures latency_figures(const std::vector<LatencyRecord>& frames, double wire_s);
 
+// The wire time of one state report at `baud`: about 55 bytes with the line end, 10 bits a
+// byte (the `wire_s` every latency figure takes).
+constexpr double state_report_wire_s(double baud) { return 55.0 * 10.0 / baud; }
+
 // The robot's sample clock on the host's, online, as latency_figures aligns it offline: the
 // sample time of a report is its device time plus the smallest receive-minus-sample offset of
 // the last `window` reports (the robot's clock unwrapped; the offline form takes the frames on
@@ -58,8 +62,8 @@ class SampleClock {
   int64_t wire_us_;
   bool started_ = false;
   uint32_t last_dev_ = 0;
-  int64_t dev_ = 0;   // unwrapped
-  uint64_t n_ = 0;    // reports seen since the window started
+  int64_t dev_ = 0;                                // unwrapped
+  uint64_t n_ = 0;                                 // reports seen since the window started
   std::deque<std::pair<uint64_t, int64_t>> mins_;  // (report, offset), offsets increasing
 };
 
