@@ -271,7 +271,8 @@ Status Hub::end_run(bool ok) {
   std::lock_guard<std::mutex> lock(mu_);
   if (db_ == nullptr || run_ == 0) return Ok{};
   const double dur = static_cast<double>(tr::steady_now_us() - run_start_us_) / 1e6;
-  return db_->end_run(run_, ok ? "ok" : "failed", dur);
+  // nothing after its end goes into it: the reports until the next run are no run's
+  return db_->end_run(std::exchange(run_, 0), ok ? "ok" : "failed", dur);
 }
 
 std::int64_t Hub::current_run() const {

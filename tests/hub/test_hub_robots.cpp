@@ -237,6 +237,35 @@ TEST_F(HubRobots, APredictionKeepsToThePlansPathWhenTheSimulatorStalls) {
   EXPECT_LT(worst_m, 0.001) << "at " << worst_t << " s";
 }
 
+// What the robot reports goes to the current run until it ends, not after: a demo's next
+// stage starts a moment later, and the reports in between are no stage's (before, they went on
+// into the run that had ended, past its recorded duration).
+TEST_F(HubRobots, AnEndedRunTakesNoMoreOfTheRobotsReports) {
+  auto robot = fake();
+  ASSERT_TRUE(robot);
+  const fs::path dir = fresh_dir("ended-run");
+  auto db = TwinDb::open(dir / "twin.db");
+  ASSERT_TRUE(db) << db.error().message;
+  auto hub = Hub::connect(model_, std::make_unique<FakeInterface>(robot), options(), db->get());
+  ASSERT_TRUE(hub) << hub.error().message;
+  auto run = (*hub)->begin_run("mirror", "reports, then none");
+  ASSERT_TRUE(run);
+  std::this_thread::sleep_for(300ms);
+  ASSERT_TRUE((*hub)->end_run(true));
+  auto during = (*db)->samples(*run, SampleSource::kPhysical);
+  ASSERT_TRUE(during) << during.error().message;
+  ASSERT_GT(during->size(), 10u) << "the fake reports at 100 Hz";
+  std::this_thread::sleep_for(300ms);
+  auto after = (*db)->samples(*run, SampleSource::kPhysical);
+  ASSERT_TRUE(after);
+  EXPECT_EQ(after->size(), during->size());
+  auto info = (*db)->run(*run);
+  ASSERT_TRUE(info);
+  EXPECT_EQ(info->status, "ok");
+  EXPECT_LE(after->back().t_s, info->duration_s);
+  EXPECT_EQ((*hub)->current_run(), 0);
+}
+
 // A robot built for another description is refused at its hello, naming both hashes; the
 // hub sends it nothing after the hello.
 TEST_F(HubRobots, ARobotBuiltForAnotherDescriptionIsRefusedAtItsHello) {

@@ -132,7 +132,8 @@ class Hub {
   // step counts and joints, plans and the mirror use it. Call it between statements.
   void set_model(const RobotModel& model);
 
-  // --- runs: what is recorded goes to the current run ------------------------------------
+  // --- runs: what is recorded goes to the current run; between end_run and the next
+  // begin_run nothing is recorded (with a database; current_run() is then 0) --------------
   Result<std::int64_t> begin_run(const std::string& kind, const std::string& label,
                                  std::int64_t parent = 0, std::int64_t ref = 0);
   Status end_run(bool ok);
