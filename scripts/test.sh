@@ -10,9 +10,16 @@
 # ThreadSanitizer build beside the suites, each extra job at idle priority (chrt --idle).
 set -euo pipefail
 cd "$(dirname "$0")/.."
+# where the time goes (CI's budget is 40 minutes on two cores): each phase's end in seconds
+# since the start, printed at the end of the run
+phases=()
+mark() { phases+=("$(printf '%6d s  %s' "$SECONDS" "$1")"); }
+SECONDS=0
 scripts/install-deps.sh
+mark "installed what was missing"
 jobs=$(nproc)
 cmake --preset ci
+mark "configured"
 mkdir -p build
 # what failed; the run goes on to the end, so that one CI run tells about everything
 failures=()
@@ -54,13 +61,16 @@ first_test='^Demo\.SortsEveryCubeAndRecordsTheTwin$'
 first_log=build/first-test.log
 # (the firmware is no build dependency of the test: the emulator loads it when it starts)
 cmake --build --preset ci -j "$jobs" --target test_demo firmware
+mark "built the demo's test and the firmware"
 set -m  # its own process group: an interrupted run stops all of it
 ctest --preset ci --no-tests=error -R "$first_test" >"$first_log" 2>&1 &
 first_pid=$!
 set +m
 trap 'kill -- "-$first_pid" 2>/dev/null || true' EXIT
 chrt --idle 0 cmake --build --preset ci -j "$jobs"
+mark "built the rest (beside the demo's test)"
 collect "the demo's test" "$first_pid" "$first_log"
+mark "the demo's test ended"
 trap - EXIT
 # a suite that is no longer registered (a missing component, a CMake condition gone wrong)
 # must not pass as "100% tests passed": the count may only grow past the floor kept in the
@@ -88,6 +98,7 @@ background() {
   # (docs/coverage.md; SCARATWIN_TEST_COVERAGE=0 skips it)
   if [[ "${SCARATWIN_TEST_COVERAGE:-1}" != 0 ]]; then
     scripts/coverage.sh
+    echo "coverage done at $SECONDS s"
   fi
   # CMake's default generator (Unix Makefiles) builds the browser page and the firmware
   # (SCARATWIN_TEST_MAKE=0 skips it)
@@ -95,6 +106,7 @@ background() {
     cmake -S . -B build/ci-make -G "Unix Makefiles" -DSCARATWIN_BUILD_TESTS=OFF \
       -DSCARATWIN_BUILD_BENCH=OFF -DSCARATWIN_WERROR=ON
     cmake --build build/ci-make -j "$jobs" --target scaratwin_web_assets firmware
+    echo "Makefile build done at $SECONDS s"
   fi
   # ThreadSanitizer build of the transports and channels, the web server and the hub (the
   # `tsan` preset); their tests run after the suites (SCARATWIN_TEST_TSAN=0 skips both). The
@@ -105,6 +117,7 @@ background() {
     cmake --preset tsan -DSCARATWIN_TEST_PEERS_DIR="$PWD/build/ci/bin" >/dev/null
     cmake --build --preset tsan -j "$jobs" --target test_transport test_statements test_web \
       test_fake_robot test_hub_robots
+    echo "ThreadSanitizer build done at $SECONDS s"
   fi
 }
 # its own process group (set -m), so that an interrupted run stops all of it
@@ -120,6 +133,7 @@ trap 'kill -- "-$background_pid" 2>/dev/null || true' EXIT
 # long runs (label `long`: more builds to calibrate, ...) are run by hand, docs/calibration.md
 suites=0
 ctest --preset ci -j "$jobs" -LE long -E "$first_test" || suites=$?
+mark "the suites ended"
 if [[ $suites != 0 ]]; then
   # name the failed tests at the end, where a truncated log still shows them
   failed_list=$(failed_tests build/ci)
@@ -129,6 +143,7 @@ fi
 
 collect "coverage, the Makefile build and the ThreadSanitizer build" "$background_pid" \
   "$background_log"
+mark "coverage, the Makefile build and the ThreadSanitizer build ended (beside the suites)"
 trap - EXIT
 # the transports and channels, the web server and the hub under ThreadSanitizer (the preset
 # sets TSAN_OPTIONS: halt_on_error=1, so a report fails its test); the hub's tests with a real
@@ -143,6 +158,9 @@ if [[ "${SCARATWIN_TEST_TSAN:-1}" != 0 ]]; then
  failed: ${failed_list:-(see the log)}")
   fi
 fi
+mark "the ThreadSanitizer tests ended"
+echo "---- where the time went (seconds since the start, at the end of each phase)"
+printf '%s\n' "${phases[@]}"
 if ((${#failures[@]})); then
   if [[ -s "$failed_outputs" ]]; then cat "$failed_outputs" >&2; fi
   printf 'error: %s\n' "${failures[@]}" >&2
