@@ -88,7 +88,6 @@ Status step_done(sqlite3* db, sqlite3_stmt* s, std::string_view what) {
   return Ok{};
 }
 
-// Prepared statements, cached per SQL text for the lifetime of the connection.
 void bind_text(sqlite3_stmt* s, int i, std::string_view v) {
   sqlite3_bind_text(s, i, v.data(), static_cast<int>(v.size()), SQLITE_TRANSIENT);
 }
