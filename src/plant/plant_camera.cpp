@@ -18,14 +18,7 @@ Result<std::unique_ptr<PlantCamera>> PlantCamera::create(const Plant& plant,
 }
 
 Result<sim::Image> PlantCamera::grab(const Plant& plant, int width_px, int height_px) {
-  if (Status st = capture(plant); !st) return st.error();
-  return draw(width_px, height_px);
-}
-
-Status PlantCamera::capture(const Plant& plant) { return camera_->capture(plant.world()); }
-
-Result<sim::Image> PlantCamera::draw(int width_px, int height_px) {
-  auto img = camera_->draw(width_px, height_px);
+  auto img = camera_->render(plant.world(), width_px, height_px);
   if (!img) return img.error();
   return spoil(*img, lens_, frames_++);
 }

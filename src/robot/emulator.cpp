@@ -114,13 +114,10 @@ Result<std::unique_ptr<Emulator>> Emulator::create(const EmulatorOptions& option
     if (!plant) return Error{EmulatorError::kSetup, "the physical world: " + plant.error().message};
     e->plant_ = std::move(plant).value();
     if (options.camera_port >= 0) {
-      // the lens of this robot's webcam: its own seeded spread around a cheap lens
-      plant::LensModel lens;
-      lens.seed = options.plant->description.physical.as_built.seed;
-      auto cam =
-          CameraServer::start(static_cast<std::uint16_t>(options.camera_port), *e->plant_, lens);
+      auto cam = SideChannel::listen(static_cast<std::uint16_t>(options.camera_port));
       if (!cam) return Error{EmulatorError::kSetup, "the camera's port: " + cam.error().message};
-      e->camera_ = std::move(cam).value();
+      cam->set_blocking_replies(true);
+      e->camera_port_.emplace(std::move(cam).value());
     }
   }
   e->wire_pins();
@@ -324,6 +321,33 @@ std::string Emulator::truth_line() const {
   return line;
 }
 
+std::string Emulator::camera_command(const std::string& line) {
+  std::istringstream in(line);
+  std::string verb;
+  int w = 0, h = 0;
+  in >> verb >> w >> h;
+  if (verb != "grab") return "ERR unknown command '" + verb + "': use grab <width> <height>";
+  const CameraModel& cam = plant_->built().scene.camera;
+  const int max_w = plant::kWebcamScale * cam.width_px, max_h = plant::kWebcamScale * cam.height_px;
+  if (w < 16 || h < 16 || w > max_w || h > max_h) {
+    return fmt::format("ERR grab needs a size from 16x16 to {}x{}", max_w, max_h);
+  }
+  if (!camera_) {
+    // the lens of this robot's webcam: its own seeded spread around a cheap lens
+    plant::LensModel lens;
+    lens.seed = options_.plant->description.physical.as_built.seed;
+    auto c = plant::PlantCamera::create(*plant_, lens);
+    if (!c) return "ERR the camera cannot render: " + c.error().message;
+    camera_ = std::move(c).value();
+  }
+  auto img = camera_->grab(*plant_, w, h);
+  if (!img) return "ERR the camera cannot render: " + img.error().message;
+  std::string out = fmt::format("FRAME {} {} {} {} {}\n", camera_->frames(), avr_->sim_us(),
+                                img->width_px, img->height_px, img->rgb.size());
+  out.append(reinterpret_cast<const char*>(img->rgb.data()), img->rgb.size());
+  return out;
+}
+
 std::string Emulator::cubes_line() const {
   if (!plant_) return "CUBES 0";
   const auto cubes = plant_->cubes();
@@ -342,9 +366,6 @@ std::string Emulator::command(const std::string& line, int client) {
   const double now_s = avr_->sim_seconds();
   if (verb == "query") return truth_line();
   if (verb == "cubes") return cubes_line();
-  if ((verb == "payload" || verb == "pattern") && camera_) {
-    camera_->take_model_back();  // both change the plant's model, which the camera may be reading
-  }
   if (verb == "payload") {
     if (!plant_) return "ERR the ideal robot has no physical world: start with --plant as-built";
     double kg = -1.0;
@@ -481,8 +502,6 @@ Status Emulator::run(const volatile bool& stop) {
       // the physical world catches up with the firmware's emulated time
       if (Status st = plant_->advance_to(now_s); !st) return st.error();
       update_endstops();
-      // the poses for a picture the camera waits for (rendered on the camera's thread)
-      if (camera_) camera_->serve(avr_->sim_us());
     }
     if (options_.duration_s > 0 && now_s >= options_.duration_s) break;
     if (now_s < kBootS) {
@@ -538,6 +557,11 @@ Status Emulator::run(const volatile bool& stop) {
       fds.push_back({pty_.master_fd(), POLLIN, 0});
       fds.push_back({side_.listen_fd(), POLLIN, 0});
       for (int fd : side_.client_fds()) fds.push_back({fd, POLLIN, 0});
+      const std::size_t camera_from = fds.size();
+      if (camera_port_) {
+        fds.push_back({camera_port_->listen_fd(), POLLIN, 0});
+        for (int fd : camera_port_->client_fds()) fds.push_back({fd, POLLIN, 0});
+      }
       timespec ts{wait_us / 1000000, (wait_us % 1000000) * 1000};
       ppoll(fds.data(), fds.size(), &ts, nullptr);
       if (fds[0].revents & POLLIN) {
@@ -551,8 +575,15 @@ Status Emulator::run(const volatile bool& stop) {
       // the side channel only when a client connects, sends or leaves (a system call per
       // client less on each pass)
       bool side_ready = false;
-      for (std::size_t i = 1; i < fds.size(); ++i) side_ready = side_ready || fds[i].revents != 0;
+      for (std::size_t i = 1; i < camera_from; ++i) side_ready = side_ready || fds[i].revents != 0;
       if (side_ready) side_.poll([this](const std::string& l, int c) { return command(l, c); });
+      bool camera_ready = false;
+      for (std::size_t i = camera_from; i < fds.size(); ++i) {
+        camera_ready = camera_ready || fds[i].revents != 0;
+      }
+      if (camera_ready) {
+        camera_port_->poll([this](const std::string& l, int) { return camera_command(l); });
+      }
       side_.publish(clock_us(CLOCK_MONOTONIC), [this] { return truth_line(); });
     } while (!stop && clock_us(CLOCK_MONOTONIC) < due_us &&
              !(host_byte && clock_us(CLOCK_MONOTONIC) >= sync_us));

@@ -17,11 +17,11 @@
 #include <vector>
 
 #include "avr_machine.hpp"
-#include "camera_server.hpp"
 #include "mechanics.hpp"
 #include "pty_link.hpp"
 #include "scaratwin/core/result.hpp"
 #include "scaratwin/plant/plant.hpp"
+#include "scaratwin/plant/plant_camera.hpp"
 #include "side_channel.hpp"
 
 namespace scaratwin::robot {
@@ -44,9 +44,8 @@ struct EmulatorOptions {
   };
   std::optional<PlantSetup> plant;
   // The real camera over the physical table (as-built only): a TCP port on 127.0.0.1 (0 = any
-  // free one, -1 = no camera), served on a thread of its own (camera_server.hpp). "grab <w>
-  // <h>" is answered "FRAME <n> <sim_us> <w> <h> <bytes>" and that many bytes of RGB (row 0 at
-  // the top), then a newline.
+  // free one, -1 = no camera). "grab <w> <h>" is answered "FRAME <n> <sim_us> <w> <h> <bytes>"
+  // and that many bytes of RGB (row 0 at the top), then a newline.
   int camera_port = 0;
   std::uint32_t profile_cycles = 0;  // > 0: sample the firmware's program counter this often
   // Non-volatile EEPROM: loaded from this file at power-up (absent: an erased EEPROM, all
@@ -72,7 +71,7 @@ class Emulator {
   const PtyLink& pty() const { return pty_; }
   const SideChannel& side() const { return side_; }
   // The camera's port, 0 when there is none.
-  std::uint16_t camera_port() const { return camera_ ? camera_->port() : 0; }
+  std::uint16_t camera_port() const { return camera_port_ ? camera_port_->port() : 0; }
   // Executes one side-channel / scenario command; returns the reply line.
   std::string command(const std::string& line, int client);
   std::string truth_line() const;
@@ -98,7 +97,9 @@ class Emulator {
   SideChannel side_;
   Mechanics mech_;
   std::unique_ptr<plant::Plant> plant_;
-  std::unique_ptr<CameraServer> camera_;  // after plant_: it holds a reference to the plant
+  std::optional<SideChannel> camera_port_;
+  std::unique_ptr<plant::PlantCamera> camera_;
+  std::string camera_command(const std::string& line);
   std::uint8_t endstops_driven_ = 0xff;
   std::uint8_t buttons_ = 0;
   std::array<double, 6> release_at_s_{};  // timed presses: emulated time of the release

@@ -277,29 +277,18 @@ Truth Robot::truth() {
   return t;
 }
 
-int Robot::camera_connection(int receive_buffer) const {
-  if (camera_port_ < 0) return -1;
-  const int fd = ::socket(AF_INET, SOCK_STREAM, 0);
-  if (fd >= 0 && receive_buffer > 0) {
-    setsockopt(fd, SOL_SOCKET, SO_RCVBUF, &receive_buffer, sizeof receive_buffer);
-  }
-  sockaddr_in addr{};
-  addr.sin_family = AF_INET;
-  addr.sin_port = htons(static_cast<std::uint16_t>(camera_port_));
-  addr.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
-  if (fd >= 0 && ::connect(fd, reinterpret_cast<sockaddr*>(&addr), sizeof addr) != 0) {
-    ::close(fd);
-    return -1;
-  }
-  return fd;
-}
-
 std::string Robot::grab(int width, int height, std::vector<std::uint8_t>& rgb, double timeout_s) {
   rgb.clear();
   if (camera_port_ < 0) return "no camera";
   if (camera_fd_ < 0) {
-    camera_fd_ = camera_connection();
-    if (camera_fd_ < 0) return "cannot connect to the camera";
+    camera_fd_ = ::socket(AF_INET, SOCK_STREAM, 0);
+    sockaddr_in addr{};
+    addr.sin_family = AF_INET;
+    addr.sin_port = htons(static_cast<std::uint16_t>(camera_port_));
+    addr.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
+    if (::connect(camera_fd_, reinterpret_cast<sockaddr*>(&addr), sizeof addr) != 0) {
+      return "cannot connect to the camera";
+    }
     fcntl(camera_fd_, F_SETFL, O_NONBLOCK);
   }
   const std::string cmd = "grab " + std::to_string(width) + " " + std::to_string(height) + "\n";

@@ -72,9 +72,6 @@ class Robot {
   // Camera (with --plant as-built): one picture of width x height, 8-bit RGB with row 0 at the
   // top, into rgb; returns the FRAME header, or the camera's error (rgb then empty).
   std::string grab(int width, int height, std::vector<std::uint8_t>& rgb, double timeout_s = 20.0);
-  // A connection of its own to the camera (blocking), -1 when there is none; the caller closes
-  // it. receive_buffer > 0: its socket's receive buffer (SO_RCVBUF), set before it connects.
-  int camera_connection(int receive_buffer = 0) const;
 
   // Reports and lines seen so far that callers did not consume.
   std::vector<std::string> reports;

@@ -4,7 +4,6 @@
 // tests run unpaced (--speed 0); every time they check is the emulated time (the firmware's
 // t_us or the emulator's sim_us), so the result does not depend on the machine's speed.
 #include <gtest/gtest.h>
-#include <sys/socket.h>
 
 #include <algorithm>
 #include <array>
@@ -12,9 +11,7 @@
 #include <cmath>
 #include <functional>
 #include <optional>
-#include <sstream>
 #include <string>
-#include <thread>
 #include <vector>
 
 #include "robot_harness.hpp"
@@ -381,49 +378,6 @@ TEST(RobotAsBuilt, ThePatternLiesOnTheTableOnRequest) {
   ASSERT_EQ(r.grab(1280, 960, rgb).rfind("FRAME ", 0), 0u);
   EXPECT_TRUE(detect_tags(RgbImage{1280, 960, rgb}).empty());
   EXPECT_EQ(r.grab(1282, 960, rgb), "ERR grab needs a size from 16x16 to 1280x960");
-}
-
-// The webcam is not the Arduino: a camera client that leaves its picture unread (the reply
-// waits up to 2 s for it, then the client is cut) holds up neither the firmware's emulation nor
-// the side channel. Paced to real time (3 s).
-TEST(RobotPaced, TheRobotRunsOnWhileACameraClientLeavesItsPictureUnread) {
-  Robot r({"--speed", "1", "--plant", "as-built"});
-  ASSERT_TRUE(r.ok()) << r.error();
-  const int fd = r.camera_connection(16384);
-  ASSERT_GE(fd, 0);
-  // two pictures of 3.7 MB: more than the sockets between us hold while this client does not
-  // read (a sending socket's buffer is at most 4 MiB by default, net.core.wmem_max)
-  const std::string request = "grab 1280 960\ngrab 1280 960\n";
-  ASSERT_EQ(::send(fd, request.data(), request.size(), MSG_NOSIGNAL),
-            static_cast<ssize_t>(request.size()));
-  const std::uint64_t sim0_us = r.truth().u("sim_us");
-  std::uint64_t sim_us = sim0_us;
-  for (int i = 0; i < 25; ++i) {
-    std::this_thread::sleep_for(std::chrono::milliseconds(100));
-    const std::string reply = r.side("query", 1.0);
-    ASSERT_EQ(reply.rfind("TR ", 0), 0u)
-        << "the side channel did not answer within 1 s while the picture waited (" << reply
-        << ") after " << (i + 1) * 100 << " ms";
-    std::istringstream in(reply);
-    std::string tok;
-    while (in >> tok) {
-      if (tok.rfind("sim_us=", 0) == 0) sim_us = std::stoull(tok.substr(7));
-    }
-  }
-  // 2.5 s of wall time at speed 1
-  EXPECT_GT(sim_us - sim0_us, 1250000u) << "the robot's clock stood still";
-  ::close(fd);
-  // the unread client was cut with its first picture unsent whole; a client that reads gets its
-  // picture, the second one taken, from the moment it asked
-  std::vector<std::uint8_t> rgb;
-  const std::string header = r.grab(320, 240, rgb);
-  ASSERT_EQ(header.rfind("FRAME 2 ", 0), 0u) << header;
-  std::istringstream in(header.substr(8));
-  std::uint64_t frame_sim_us = 0;
-  in >> frame_sim_us;
-  EXPECT_GT(frame_sim_us, sim_us);
-  EXPECT_LE(frame_sim_us, r.truth().u("sim_us"));
-  EXPECT_EQ(rgb.size(), 320u * 240u * 3u);
 }
 
 TEST_F(RobotTest, TheIdealRobotHasNoPatternToLay) {

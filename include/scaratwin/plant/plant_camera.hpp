@@ -26,14 +26,8 @@ class PlantCamera {
                                                      const LensModel& lens = {});
   ~PlantCamera();
   // A picture of the physical table now, width x height (at most kWebcamScale times the scene
-  // camera's size): capture() then draw().
+  // camera's size).
   Result<sim::Image> grab(const Plant& plant, int width_px, int height_px);
-  // The two halves of grab(), so that the plant need be held still only while its poses are
-  // copied: capture() takes them (cheap; reads the plant's model and data), draw() renders and
-  // spoils the last capture (slow; touches neither, so another thread may do it while the
-  // plant moves on, one call at a time).
-  Status capture(const Plant& plant);
-  Result<sim::Image> draw(int width_px, int height_px);
   std::uint64_t frames() const { return frames_; }
 
  private:
