@@ -507,7 +507,6 @@ TEST(HubWorkcell, TwoHubsDriveTheTwoArmsOfOneSimulatorAtOnce) {
   ASSERT_TRUE(hubs[1]->sim_mode(protocol::SimMode::kSimulate));
   auto id = hubs[1]->spawn_cube(CubeColor::kBlue, 0.150, -0.100);
   ASSERT_TRUE(id) << id.error().message;
-  std::this_thread::sleep_for(300ms);  // the cube settles
   const auto cube_of = [&](Hub& hub) -> protocol::ObjectPose {
     auto objs = hub.objects();
     EXPECT_TRUE(objs) << objs.error().message;
@@ -517,8 +516,23 @@ TEST(HubWorkcell, TwoHubsDriveTheTwoArmsOfOneSimulatorAtOnce) {
     ADD_FAILURE() << "cube " << *id << " not in the scene";
     return {};
   };
-  const protocol::ObjectPose in_world = cube_of(*hubs[0]);
-  const protocol::ObjectPose in_right = cube_of(*hubs[1]);
+  // The two hubs' reads are two requests, a moment apart: compare them only once the cube
+  // rests, read from the left hub before and after the right hub's read with the same pose
+  // (the wire carries micrometres), so that both describe one state of the table.
+  protocol::ObjectPose in_world;
+  protocol::ObjectPose in_right;
+  const auto settled = [](const protocol::ObjectPose& a, const protocol::ObjectPose& b) {
+    return a.x_m == b.x_m && a.y_m == b.y_m && a.z_m == b.z_m && a.yaw_rad == b.yaw_rad;
+  };
+  bool at_rest = false;
+  for (const auto until = std::chrono::steady_clock::now() + 10s;
+       !at_rest && std::chrono::steady_clock::now() < until;) {
+    std::this_thread::sleep_for(100ms);
+    in_world = cube_of(*hubs[0]);
+    in_right = cube_of(*hubs[1]);
+    at_rest = settled(in_world, cube_of(*hubs[0]));
+  }
+  ASSERT_TRUE(at_rest) << "the cube did not come to rest within 10 s";
   EXPECT_NEAR(in_world.x_m, 0.250, 1e-3);
   EXPECT_NEAR(in_world.y_m, 0.300, 1e-3);
   EXPECT_NEAR(in_right.x_m, 0.150, 1e-3);
