@@ -6,6 +6,7 @@
 #include <condition_variable>
 #include <cstdio>
 #include <deque>
+#include <future>
 #include <memory>
 #include <mutex>
 #include <optional>
@@ -14,9 +15,11 @@
 
 #include "commands.hpp"
 #include "hub_session.hpp"
+#include "scaratwin/config/workcell_config.hpp"
 #include "scaratwin/fleet/hub_state.hpp"
 #include "scaratwin/fleet/mqtt_bridge.hpp"
 #include "scaratwin/fleet/topics.hpp"
+#include "scaratwin/kinematics/workcell.hpp"
 
 namespace scaratwin::cli {
 namespace {
@@ -26,6 +29,7 @@ struct HubArgs {
   std::string name;
   double state_hz = 10.0;
   int queue = 8;
+  std::string log_prefix;  // before each command's line: the robot's name when there are several
 };
 
 void say(const std::string& line) {
@@ -159,7 +163,7 @@ Status serve(Hub& hub, const HubArgs& a, const std::optional<fleet::BrokerAddres
     // a stop that arrived during this command interrupted it: the stop runs next
     if (hub.interrupted() && jobs.take_stop_pending()) hub.clear_interrupt();
     jobs.finished(r.ok());
-    say(fmt::format("command {} '{}': {}", c->id_json, c->statement,
+    say(fmt::format("{}command {} '{}': {}", a.log_prefix, c->id_json, c->statement,
                     r ? *r : "refused: " + r.error().message));
     if (bridge) {
       bridge->reply(r ? fleet::reply_ok(c->id_json, *r)
@@ -168,14 +172,40 @@ Status serve(Hub& hub, const HubArgs& a, const std::optional<fleet::BrokerAddres
   }
 }
 
-int run_hub(const CommonOptions& common, const LinkArgs& l, HubArgs a) {
-  auto model = load_model(common);
-  if (!model) return kExitUsage;
-  if (a.name.empty()) a.name = model->name;
-  if (Status s = fleet::check_robot_name(a.name); !s) {
-    std::fprintf(stderr, "scaratwin hub: --name: %s\n", s.error().message.c_str());
-    return kExitUsage;
+// Every robot of the workcell in one hub: each served on a thread of its own (its own queue,
+// its own topics), until Ctrl-C interrupts them all or one of them fails (then the others are
+// interrupted too).
+Status serve_all(const std::vector<NamedHub>& hubs, const HubArgs& a,
+                 const std::optional<fleet::BrokerAddress>& broker) {
+  std::vector<std::future<Status>> served;
+  std::mutex mu;
+  bool ending = false;
+  for (const NamedHub& h : hubs) {
+    served.push_back(std::async(std::launch::async, [&, h] {
+      HubArgs own = a;
+      own.name = h.name;
+      own.log_prefix = h.name + ": ";
+      Status s = serve(*h.hub, own, broker);
+      std::lock_guard<std::mutex> lock(mu);
+      if (!ending) {
+        ending = true;
+        for (const NamedHub& other : hubs) {
+          if (other.hub != h.hub) other.hub->interrupt();
+        }
+      }
+      if (!s) s = Error{s.error().code, fmt::format("robot '{}': {}", h.name, s.error().message)};
+      return s;
+    }));
   }
+  Status first = Ok{};
+  for (auto& f : served) {
+    Status s = f.get();
+    if (first && !s) first = std::move(s);
+  }
+  return first;
+}
+
+int run_hub(const CommonOptions& common, const LinkArgs& l, HubArgs a) {
   std::optional<fleet::BrokerAddress> broker;
   if (!a.mqtt.empty()) {
     auto b = fleet::parse_broker_url(a.mqtt);
@@ -184,6 +214,33 @@ int run_hub(const CommonOptions& common, const LinkArgs& l, HubArgs a) {
       return kExitUsage;
     }
     broker = *b;
+  }
+  if (!l.workcell.empty() && l.robot.empty()) {
+    // a workcell of several robots: all of them, each under its workcell name
+    auto cell = load_workcell_config(l.workcell);
+    if (!cell) {
+      std::fprintf(stderr, "scaratwin hub: %s\n", cell.error().message.c_str());
+      return kExitUsage;
+    }
+    if (cell->robots.size() > 1) {
+      if (!a.name.empty()) {
+        std::fprintf(stderr,
+                     "scaratwin hub: --name: this hub drives the %zu robots of %s under their "
+                     "own names (%s); --robot NAME drives one of them alone\n",
+                     cell->robots.size(), l.workcell.c_str(), robot_names(*cell).c_str());
+        return kExitUsage;
+      }
+      return with_hubs(common, l, "hub", l.workcell, [&](const std::vector<NamedHub>& hubs) {
+        return serve_all(hubs, a, broker);
+      });
+    }
+  }
+  auto model = load_model(common);
+  if (!model) return kExitUsage;
+  if (a.name.empty()) a.name = model->name;
+  if (Status s = fleet::check_robot_name(a.name); !s) {
+    std::fprintf(stderr, "scaratwin hub: --name: %s\n", s.error().message.c_str());
+    return kExitUsage;
   }
   return with_hub(common, l, "hub", a.name, [&](Hub& hub) { return serve(hub, a, broker); });
 }

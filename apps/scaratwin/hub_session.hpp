@@ -5,6 +5,7 @@
 #include <functional>
 #include <memory>
 #include <string>
+#include <vector>
 
 #include "commands.hpp"
 #include "scaratwin/hub/hub.hpp"
@@ -12,7 +13,7 @@
 namespace scaratwin::cli {
 
 struct LinkArgs {
-  std::string serial;
+  std::vector<std::string> serial;  // DEVICE, or NAME=DEVICE per robot for several
   std::string sim = "127.0.0.1:55016";
   std::string sim_token;
   std::string db = "scaratwin-out/twin.db";
@@ -31,6 +32,20 @@ void add_link_options(CLI::App& cmd, LinkArgs& l);
 // body's error is printed as "scaratwin <kind>: <message>".
 int with_hub(const CommonOptions& common, const LinkArgs& l, const std::string& kind,
              const std::string& label, const std::function<Status(Hub&)>& body);
+
+// A hub and the name of the workcell's robot it drives.
+struct NamedHub {
+  std::string name;
+  Hub* hub = nullptr;
+};
+
+// As with_hub(), for every robot of the workcell at once when --robot is not given (--robot:
+// that one; one robot: as with_hub()): one hub each, on its serial port (--serial NAME=DEVICE),
+// recording into its own database (twin-NAME.db beside --db), all mirrored into the one
+// simulator. Ctrl-C interrupts every hub. `body` runs once with all of them.
+int with_hubs(const CommonOptions& common, const LinkArgs& l, const std::string& kind,
+              const std::string& label,
+              const std::function<Status(const std::vector<NamedHub>&)>& body);
 
 // `scaratwin demo --mqtt URL`: the demo's robot on the fleet's topics (its state, published
 // until the returned handle goes; commands are answered "takes no commands"). `name` empty:

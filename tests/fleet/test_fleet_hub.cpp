@@ -21,6 +21,7 @@
 
 #include "mqtt_peer.hpp"
 #include "scaratwin/hub/process.hpp"
+#include "scaratwin/hub/twin_db.hpp"
 
 namespace scaratwin {
 namespace {
@@ -33,6 +34,7 @@ using test::Peer;
 
 const fs::path kBin = SCARATWIN_BIN_DIR;
 const fs::path kBroker = SCARATWIN_MOSQUITTO;
+const fs::path kConfig = SCARATWIN_CONFIG_DIR;
 constexpr double kZStepsPerM = 205560.0;
 
 fs::path fresh_dir(const char* name) {
@@ -324,6 +326,163 @@ TEST(FleetHub, ServesItsRobotOnTheBrokerAndOnlyIts) {
   EXPECT_TRUE(late.wait(
       "scaratwin/v1/r1/connection", [](const Message& m) { return m.payload == "offline"; }, 10s,
       mark));
+}
+
+// One hub drives every robot of a workcell (docs/workcell.md, "The hub's robot interface"):
+// `scaratwin hub --workcell config/two_arms.toml` with a serial port per robot opens both
+// robots' interfaces, mirrors both into the one simulator, records each into its own database
+// and serves each on its own topics, at the same time. Judged by each emulator's truth channel.
+TEST(FleetHub, OneHubDrivesEveryRobotOfAWorkcell) {
+  const fs::path dir = fresh_dir("fleet-cell");
+  const fs::path cell = kConfig / "two_arms.toml";
+  std::unique_ptr<ChildProcess> robots[2];
+  fs::path ptys[2];
+  int side[2] = {0, 0};
+  const char* names[2] = {"left", "right"};
+  for (int i = 0; i < 2; ++i) {
+    ptys[i] = dir / fmt::format("{}.pty", names[i]);
+    auto r = ChildProcess::start(kBin / "scaratwin-robot",
+                                 {"--pty-link", ptys[i].string(), "--plant", "ideal"},
+                                 dir / fmt::format("{}.log", names[i]));
+    ASSERT_TRUE(r) << r.error().message;
+    robots[i] = std::move(*r);
+  }
+  auto sim = ChildProcess::start(
+      kBin / "scaratwin-sim",
+      {"--workcell", cell.string(), "--port", "0", "--http-port", "0", "--no-camera"},
+      dir / "sim.log");
+  ASSERT_TRUE(sim) << sim.error().message;
+  for (int i = 0; i < 2; ++i) {
+    auto line = robots[i]->wait_for_line("side channel: ", 60s);
+    ASSERT_TRUE(line) << line.error().message;
+    side[i] = std::stoi(line->substr(line->rfind(':') + 1));
+  }
+  auto listening = (*sim)->wait_for_line("listening on", 60s);
+  ASSERT_TRUE(listening) << listening.error().message;
+  const size_t paren = listening->find(" (");
+  const size_t colon = listening->rfind(':', paren);
+  const std::string sim_port = listening->substr(colon + 1, paren - colon - 1);
+  const int broker_port = test::free_loopback_port();
+  auto broker = test::start_broker(kBroker, dir, broker_port);
+  ASSERT_TRUE(broker) << broker.error().message;
+  Peer peer(broker_port, "scaratwin/v1/#");
+  ASSERT_TRUE(peer.ok());
+
+  auto hub = ChildProcess::start(
+      kBin / "scaratwin",
+      {"hub", "--workcell", cell.string(), "--serial", "left=" + ptys[0].string(), "--serial",
+       "right=" + ptys[1].string(), "--sim", "127.0.0.1:" + sim_port, "--db",
+       (dir / "twin.db").string(), "--mqtt", fmt::format("mqtt://127.0.0.1:{}", broker_port),
+       "--state-hz", "20"},
+      dir / "hub.log");
+  ASSERT_TRUE(hub) << hub.error().message;
+  for (const char* name : names) {
+    auto ready = (*hub)->wait_for_line(fmt::format("scaratwin hub: robot '{}' ready", name), 60s);
+    ASSERT_TRUE(ready) << (*hub)->output_tail();
+  }
+  Truth truth[2] = {Truth(side[0]), Truth(side[1])};
+
+  // both home at once: two commands out, two replies back, each on its robot's topic
+  const auto both = [&](const std::string& id, const std::string& left, const std::string& right) {
+    const std::size_t mark = peer.count();
+    EXPECT_TRUE(
+        peer.publish("scaratwin/v1/left/command", json{{"id", id}, {"statement", left}}.dump()));
+    EXPECT_TRUE(
+        peer.publish("scaratwin/v1/right/command", json{{"id", id}, {"statement", right}}.dump()));
+    std::array<json, 2> replies;
+    for (int i = 0; i < 2; ++i) {
+      auto r = peer.wait(
+          fmt::format("scaratwin/v1/{}/reply", names[i]),
+          [&](const Message& m) { return parse(m).value("id", json()) == id; }, 120s, mark);
+      if (r) replies[static_cast<std::size_t>(i)] = parse(*r);
+    }
+    return replies;
+  };
+  const auto homed = both("h", "home", "home");
+  for (int i = 0; i < 2; ++i) {
+    ASSERT_EQ(homed[static_cast<std::size_t>(i)].value("ok", false), true)
+        << names[i] << ": " << homed[static_cast<std::size_t>(i)].dump() << (*hub)->output_tail();
+  }
+  const auto z_at = [](double d1_m) { return static_cast<std::int64_t>(d1_m * kZStepsPerM); };
+  for (int i = 0; i < 2; ++i) {
+    EXPECT_NEAR(static_cast<double>(truth[i].get("z")), static_cast<double>(z_at(0.12)), 200.0)
+        << names[i] << " homed at d1 = 120 mm";
+  }
+
+  // each its own move, at the same time: left down to 40 mm, right to 50 mm. Watched on both
+  // truth channels: there is a moment when both carriages are on their way.
+  const std::size_t mark = peer.count();
+  ASSERT_TRUE(peer.publish("scaratwin/v1/left/command",
+                           json{{"id", "m"}, {"statement", "movej 0.04 0 0 0"}}.dump()));
+  ASSERT_TRUE(peer.publish("scaratwin/v1/right/command",
+                           json{{"id", "m"}, {"statement", "movej 0.05 0 0 0"}}.dump()));
+  bool together = false;
+  for (int k = 0; k < 1000 && !together; ++k) {
+    const std::int64_t zl = truth[0].get("z");
+    const std::int64_t zr = truth[1].get("z");
+    together = zl < z_at(0.12) - 500 && zl > z_at(0.04) + 500 && zr < z_at(0.12) - 500 &&
+               zr > z_at(0.05) + 500;
+    if (!together) std::this_thread::sleep_for(10ms);
+  }
+  EXPECT_TRUE(together) << "the two robots moved one after the other, not at once";
+  for (int i = 0; i < 2; ++i) {
+    auto r = peer.wait(
+        fmt::format("scaratwin/v1/{}/reply", names[i]),
+        [&](const Message& m) { return parse(m).value("id", json()) == "m"; }, 120s, mark);
+    ASSERT_TRUE(r) << names[i] << (*hub)->output_tail();
+    EXPECT_EQ(parse(*r).value("ok", false), true) << r->payload;
+  }
+  EXPECT_NEAR(static_cast<double>(truth[0].get("z")), static_cast<double>(z_at(0.04)), 200.0);
+  EXPECT_NEAR(static_cast<double>(truth[1].get("z")), static_cast<double>(z_at(0.05)), 200.0);
+
+  // a command one robot refuses moves neither; the other still answers
+  const auto before = std::array{truth[0].motors(), truth[1].motors()};
+  const auto refused = both("r", "wait 0", "move 0.5 0 0.05");
+  EXPECT_EQ(refused[0].value("ok", false), true) << refused[0].dump();
+  EXPECT_EQ(refused[1].value("ok", true), false) << refused[1].dump();
+  EXPECT_NE(refused[1].value("error", "").find("reach"), std::string::npos) << refused[1].dump();
+  EXPECT_EQ(truth[0].motors(), before[0]);
+  EXPECT_EQ(truth[1].motors(), before[1]);
+
+  // each robot's state on its own topic, mirrored from its own robot
+  for (int i = 0; i < 2; ++i) {
+    const double d1 = i == 0 ? 0.04 : 0.05;
+    auto state = peer.wait(
+        fmt::format("scaratwin/v1/{}/state", names[i]),
+        [&](const Message& m) {
+          const json j = parse(m);
+          return j["robot"] == names[i] && j["link"]["sim"] == true &&
+                 std::abs(j["joints"]["d1_m"].get<double>() - d1) < 1e-3;
+        },
+        10s);
+    EXPECT_TRUE(state) << names[i] << "'s state shows its own carriage at " << d1 << " m";
+  }
+
+  // SIGTERM stops both (status 130) and both read offline
+  const std::size_t before_end = peer.count();
+  ASSERT_EQ(::kill((*hub)->pid(), SIGTERM), 0);
+  EXPECT_EQ((*hub)->wait_exit(30s), 130) << (*hub)->output_tail();
+  for (const char* name : names) {
+    EXPECT_TRUE(peer.wait(
+        fmt::format("scaratwin/v1/{}/connection", name),
+        [](const Message& m) { return m.payload == "offline"; }, 10s, before_end))
+        << name;
+  }
+
+  // one database each, beside --db: the hub's run, and the robot's own reports in it
+  EXPECT_FALSE(fs::exists(dir / "twin.db"));
+  for (int i = 0; i < 2; ++i) {
+    auto db = TwinDb::open(dir / fmt::format("twin-{}.db", names[i]));
+    ASSERT_TRUE(db) << db.error().message;
+    auto runs = (*db)->runs();
+    ASSERT_TRUE(runs);
+    ASSERT_EQ(runs->size(), 1u) << names[i];
+    EXPECT_EQ(runs->front().kind, "hub");
+    auto samples = (*db)->samples(runs->front().id, SampleSource::kPhysical);
+    ASSERT_TRUE(samples);
+    ASSERT_FALSE(samples->empty()) << names[i];
+    EXPECT_NEAR(samples->back().q[0], i == 0 ? 0.04 : 0.05, 1e-3) << names[i];
+  }
 }
 
 }  // namespace
