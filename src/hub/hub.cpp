@@ -251,6 +251,10 @@ Result<std::unique_ptr<Hub>> Hub::connect(const RobotModel& model,
     t->last_robot_rx_us_ = tr::steady_now_us();
   }
   t->watchdog_ = std::thread([raw] { raw->watch_robot_link(); });
+  {
+    std::lock_guard<std::mutex> lock(t->mu_);
+    t->connected_ = true;
+  }
   return t;
 }
 
@@ -336,7 +340,7 @@ void Hub::on_sim_link(tr::LinkState state) {
             std::fprintf(stderr, "scaratwin: %s\n", same.error().message.c_str());
           } else if (r || refused_described_hello(r.error())) {
             on_sim_answered();
-          } else if (r.error().code == pr::kErrAccess) {
+          } else if (r.error().code == protocol_error_code(pr::kErrAccess)) {
             std::fprintf(stderr, "scaratwin: the simulator refused the hub: %s\n",
                          access_refusal(r.error().message, options_).c_str());
           }
@@ -352,6 +356,8 @@ void Hub::on_sim_link(tr::LinkState state) {
     std::lock_guard<std::mutex> lock(mu_);
     if (!sim_up_) return;  // a connection that never answered its hello went again
     sim_up_ = false;
+    // a hub still connecting (refused, say) fails in connect() saying why: no lost link
+    if (!connected_) return;
     ++mirror_counters_.sim_link_losses;
     if (in_motion_ && motion_abort_.empty()) {
       motion_abort_ = fmt::format(

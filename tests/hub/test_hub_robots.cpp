@@ -301,6 +301,61 @@ TEST_F(HubRobots, ASimulatorWithoutTheRobotIsRefusedBeforeTheRobotIsTold) {
   EXPECT_EQ(robot->received_codes(), std::vector<std::string>{"HI"});
 }
 
+// A simulator that comes back refusing the hub (restarted with an access token here; another
+// controller is refused the same way): the hub says why at once, instead of reconnecting in
+// silence. A hub refused while it connects says only the refusal, not a lost link.
+TEST_F(HubRobots, ASimulatorThatComesBackRefusingTheHubIsSaidWhy) {
+  const fs::path dir = fresh_dir("sim-back");
+  auto sim = ChildProcess::start(kBin / "scaratwin-sim",
+                                 {"--port", "0", "--http-port", "0", "--no-camera"}, dir / "a.log");
+  ASSERT_TRUE(sim) << sim.error().message;
+  auto port = test::simulator_port(**sim);
+  ASSERT_TRUE(port) << port.error().message;
+  auto robot = fake();
+  ASSERT_TRUE(robot);
+  HubOptions o = options();
+  o.sim_port = *port;
+  auto hub = Hub::connect(model_, std::make_unique<FakeInterface>(robot), o, nullptr);
+  ASSERT_TRUE(hub) << hub.error().message;
+
+  testing::internal::CaptureStderr();
+  sim->reset();  // ends it
+  auto back = ChildProcess::start(
+      kBin / "scaratwin-sim",
+      {"--port", std::to_string(*port), "--http-port", "0", "--no-camera", "--token", "sesame"},
+      dir / "b.log");
+  ASSERT_TRUE(back) << back.error().message;
+  ASSERT_TRUE(test::simulator_port(**back));
+  const std::string refused =
+      "scaratwin: the simulator refused the hub: it needs its access token (--sim-token or "
+      "SCARATWIN_TOKEN)";
+  std::string err;
+  for (int i = 0; i < 100 && err.find(refused) == std::string::npos; ++i) {
+    std::this_thread::sleep_for(100ms);
+    // CaptureStderr ends with GetCapturedStderr: take it and capture on
+    err += testing::internal::GetCapturedStderr();
+    testing::internal::CaptureStderr();
+  }
+  err += testing::internal::GetCapturedStderr();
+  EXPECT_NE(err.find("scaratwin: the simulator link was lost; reconnecting"), std::string::npos)
+      << err;
+  EXPECT_NE(err.find(refused), std::string::npos) << err;
+  EXPECT_FALSE((*hub)->sim_connected());
+
+  // a second hub refused at its connection: the refusal, and no word of a lost link
+  auto other = fake();
+  ASSERT_TRUE(other);
+  testing::internal::CaptureStderr();
+  auto second = Hub::connect(model_, std::make_unique<FakeInterface>(other), o, nullptr);
+  err = testing::internal::GetCapturedStderr();
+  ASSERT_FALSE(second);
+  EXPECT_EQ(second.error().message,
+            fmt::format("simulator at 127.0.0.1:{} refused the hub: it needs its access token "
+                        "(--sim-token or SCARATWIN_TOKEN)",
+                        *port));
+  EXPECT_EQ(err.find("link was lost"), std::string::npos) << err;
+}
+
 // The stop statement: the fake confirms it, and the next trajectory runs (recover()).
 TEST_F(HubRobots, AStopIsConfirmedAndTheNextTrajectoryRuns) {
   auto robot = fake();

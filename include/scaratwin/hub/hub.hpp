@@ -295,6 +295,7 @@ class Hub {
   std::atomic<int> desync_alarms_{0};  // over every trajectory run
   std::atomic<bool> interrupted_{false};
   bool sim_up_ = true;            // the simulator link is connected (mu_)
+  bool connected_ = false;        // connect() has returned the hub (mu_)
   bool in_motion_ = false;        // a trajectory is being run (mu_)
   std::string motion_abort_;      // why the trajectory in progress must end (mu_)
   std::uint64_t abort_mark_ = 0;  // event count when the link watcher sent its stop (mu_)
