@@ -1,5 +1,6 @@
-// Helpers shared by the hub's translation units (hub.cpp: runs, mirror, physical robot;
-// hub_virtual.cpp: the virtual robot). Not part of the public interface.
+// Helpers shared by the hub's translation units (hub.cpp: connect, runs, mirror;
+// hub_physical.cpp: the physical robot; hub_virtual.cpp: the virtual robot). Not part of the
+// public interface.
 #pragma once
 
 #include <chrono>
