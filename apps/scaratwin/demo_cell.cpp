@@ -244,6 +244,7 @@ int run_cell_demo(const CellDemoOptions& a) {
     ho.sim_robot = i;
     ho.base = r.base;
     ho.description_source = r.description_file;
+    ho.log_name = r.name;
     auto hub = Hub::connect(arm.model, emulated_robot(eo), ho, arm.db.get());
     if (!hub) {
       std::fprintf(stderr, "scaratwin demo: %s: %s\n", r.name.c_str(), hub.error().message.c_str());

@@ -234,6 +234,7 @@ Result<std::vector<RobotLink>> robot_links(const CommonOptions& common, const Li
     o.sim_port = static_cast<std::uint16_t>(port);
     o.sim_token = token;
     o.description_source = instance.description_file;
+    if (chosen->size() > 1) o.log_name = instance.name;  // says which robot a message is of
     // stop acts on the robot alone, so it may run while another hub controls the simulator
     if (kind == "stop") o.sim_role = "observe";
     if (!l.no_db) {

@@ -328,12 +328,11 @@ void Hub::on_sim_link(tr::LinkState state) {
                             : Status{Ok{}};
           if (!same) {
             // a simulator restarted with another description: not back (nothing is sent to it)
-            std::fprintf(stderr, "scaratwin: %s\n", same.error().message.c_str());
+            say(same.error().message);
           } else if (r || refused_described_hello(r.error())) {
             on_sim_answered();
           } else if (r.error().code == protocol_error_code(pr::kErrAccess)) {
-            std::fprintf(stderr, "scaratwin: the simulator refused the hub: %s\n",
-                         access_refusal(r.error().message, options_).c_str());
+            say("the simulator refused the hub: " + access_refusal(r.error().message, options_));
           }
         });
     return;
@@ -363,9 +362,14 @@ void Hub::on_sim_link(tr::LinkState state) {
   // the stop goes out at once from here; the statement waiting for the trajectory wakes,
   // confirms it and fails saying why
   if (stop_robot) (void)robot_->send_realtime(pr::Realtime::kStop);
-  std::fprintf(stderr, "scaratwin: %s%s; reconnecting\n", what.c_str(),
-               stop_robot ? " during a move: stopping the robot" : "");
+  say(what + (stop_robot ? " during a move: stopping the robot" : "") + "; reconnecting");
   record_event("link", stop_robot ? what + " during a move: robot stopped" : what);
+}
+
+void Hub::say(const std::string& text) const {
+  const std::string who =
+      options_.log_name.empty() ? std::string() : fmt::format("robot '{}': ", options_.log_name);
+  std::fprintf(stderr, "scaratwin: %s%s\n", who.c_str(), text.c_str());
 }
 
 void Hub::on_sim_answered() {
@@ -379,7 +383,7 @@ void Hub::on_sim_answered() {
   }
   // the mirror mode for a new stream of frames
   if (mirror) (void)sim_->post(pr::SetMode{pr::SimMode::kMirror, options_.sim_robot});
-  std::fprintf(stderr, "scaratwin: the simulator link is back\n");
+  say("the simulator link is back");
   record_event("link", "simulator link back");
 }
 
@@ -403,28 +407,28 @@ void Hub::watch_robot_link() {
     last_pass_us = now_us;
     if (late) continue;
     const std::int64_t quiet_us = now_us - last_robot_rx_us_;
-    std::string say;
+    std::string news;
     bool stop_robot = false;
     if (!robot_silent_ && static_cast<double>(quiet_us) >= silence_limit_s_ * 1e6) {
       // said at once; what it was (a cut, or the robot itself stalled with its clock, as an
       // emulator on a busy host does) shows in the robot's clock when its reports come back
       robot_silent_ = true;
       silence_said_ = in_motion_;  // on stderr during a move; otherwise the event log only
-      say = fmt::format(
+      news = fmt::format(
           "no state report from the robot for {} ms (the link cut, or the robot stalled)",
           quiet_us / 1000);
     } else if (robot_silent_ && in_motion_ && motion_abort_.empty() &&
                static_cast<double>(quiet_us) >=
                    std::max(options_.reply_timeout_s, kRobotSilenceAbortMinS) * 1e6) {
       // longer than the robot's queue lasts: the move is over whatever it was
-      say = fmt::format("the robot link is silent for {} ms (cut or unplugged)", quiet_us / 1000);
-      motion_abort_ = say;
+      news = fmt::format("the robot link is silent for {} ms (cut or unplugged)", quiet_us / 1000);
+      motion_abort_ = news;
       abort_mark_ = event_count_;  // the stop's confirmation (EV 6) comes after this
       abort_stop_wait_s_ = 0.5;    // it can only come once the link is back
       stop_robot = true;
       stop_owed_ = true;
     }
-    if (say.empty()) continue;
+    if (news.empty()) continue;
     const bool print = stop_robot || silence_said_;
     cv_.notify_all();
     lock.unlock();
@@ -436,10 +440,9 @@ void Hub::watch_robot_link() {
       robot_->fail_pending("the robot link is silent");
     }
     if (print) {
-      std::fprintf(stderr, "scaratwin: %s%s\n", say.c_str(),
-                   stop_robot ? " during a move: stopping the robot" : "");
+      say(news + (stop_robot ? " during a move: stopping the robot" : ""));
     }
-    record_event("link", stop_robot ? say + " during a move: robot stopped" : say);
+    record_event("link", stop_robot ? news + " during a move: robot stopped" : news);
     lock.lock();
   }
 }
@@ -447,7 +450,7 @@ void Hub::watch_robot_link() {
 void Hub::on_robot_packet(pr::SerialFromDevice&& msg, const tr::RxPacket& rx) {
   {
     const auto* st = std::get_if<pr::DeviceState>(&msg);
-    std::string say;
+    std::string news;
     bool stop_robot = false;
     bool print = false;
     {
@@ -489,7 +492,7 @@ void Hub::on_robot_packet(pr::SerialFromDevice&& msg, const tr::RxPacket& rx) {
           }
           stop_robot = stop_owed_;
           stop_owed_ = false;
-          say =
+          news =
               fmt::format("{}: {}{}",
                           after_silence ? fmt::format("the robot link is back after {} ms", wall_ms)
                                         : std::string("the robot's state reports skipped ahead"),
@@ -498,7 +501,7 @@ void Hub::on_robot_packet(pr::SerialFromDevice&& msg, const tr::RxPacket& rx) {
           cv_.notify_all();
         } else if (jumped) {
           // the event log only: the move goes on
-          say = fmt::format(
+          news = fmt::format(
               "{} ms of the robot's state reports lost between two read {} ms apart: this host "
               "read them late and its input overflowed (not a cut)",
               robot_ms, wall_ms);
@@ -514,7 +517,7 @@ void Hub::on_robot_packet(pr::SerialFromDevice&& msg, const tr::RxPacket& rx) {
           cv_.notify_all();
         } else if (stall_pending_) {
           stall_pending_ = false;
-          say = fmt::format(
+          news = fmt::format(
               "the robot's reports are back after {} ms; its own clock stood still as long "
               "({} ms): the robot stalled, not the link",
               stall_gap_ms_, stall_robot_ms_);
@@ -526,13 +529,13 @@ void Hub::on_robot_packet(pr::SerialFromDevice&& msg, const tr::RxPacket& rx) {
         robot_clock_known_ = true;
       }
     }
-    if (!say.empty()) {
+    if (!news.empty()) {
       if (stop_robot) {
         (void)robot_->send_realtime(pr::Realtime::kStop);
         robot_->fail_pending("the robot link was cut");
       }
-      if (print) std::fprintf(stderr, "scaratwin: %s\n", say.c_str());
-      record_event("link", say);
+      if (print) say(news);
+      record_event("link", news);
     }
   }
   // one handler per packet the robot may send unasked and no generic one: a new message type

@@ -314,6 +314,7 @@ TEST_F(HubRobots, ASimulatorThatComesBackRefusingTheHubIsSaidWhy) {
   ASSERT_TRUE(robot);
   HubOptions o = options();
   o.sim_port = *port;
+  o.log_name = "left";  // one of several hubs in a process: its messages name its robot
   auto hub = Hub::connect(model_, std::make_unique<FakeInterface>(robot), o, nullptr);
   ASSERT_TRUE(hub) << hub.error().message;
 
@@ -326,8 +327,8 @@ TEST_F(HubRobots, ASimulatorThatComesBackRefusingTheHubIsSaidWhy) {
   ASSERT_TRUE(back) << back.error().message;
   ASSERT_TRUE(test::simulator_port(**back));
   const std::string refused =
-      "scaratwin: the simulator refused the hub: it needs its access token (--sim-token or "
-      "SCARATWIN_TOKEN)";
+      "scaratwin: robot 'left': the simulator refused the hub: it needs its access token "
+      "(--sim-token or SCARATWIN_TOKEN)";
   std::string err;
   for (int i = 0; i < 100 && err.find(refused) == std::string::npos; ++i) {
     std::this_thread::sleep_for(100ms);
@@ -336,7 +337,8 @@ TEST_F(HubRobots, ASimulatorThatComesBackRefusingTheHubIsSaidWhy) {
     testing::internal::CaptureStderr();
   }
   err += testing::internal::GetCapturedStderr();
-  EXPECT_NE(err.find("scaratwin: the simulator link was lost; reconnecting"), std::string::npos)
+  EXPECT_NE(err.find("scaratwin: robot 'left': the simulator link was lost; reconnecting"),
+            std::string::npos)
       << err;
   EXPECT_NE(err.find(refused), std::string::npos) << err;
   EXPECT_FALSE((*hub)->sim_connected());

@@ -55,6 +55,9 @@ struct HubOptions {
   // "observe": the hub only watches the simulator (the stop command, which may run while
   // another hub controls it); empty: it controls it (one controlling client at a time)
   std::string sim_role;
+  // Names the robot in what the hub prints ("scaratwin: robot 'left': the simulator link is
+  // back") where one process holds several hubs; empty: the messages name none.
+  std::string log_name;
   // The robot's index in the simulator's workcell (protocol v2, docs/protocol.md section
   // 11.3): every robot-addressed packet to the simulator carries it; 0, the first robot, sends
   // the v1 bytes. A simulator without that robot refuses it (error 19, no_robot).
@@ -242,6 +245,8 @@ class Hub {
   void on_sim_link(transport::LinkState state);
   // The simulator answered the hello on a new connection (io thread): the link is back.
   void on_sim_answered();
+  // Prints "scaratwin: <text>" on stderr, naming the robot when options_.log_name is set.
+  void say(const std::string& text) const;
   // The watchdog thread: notices the robot link going silent.
   void watch_robot_link();
   // The trajectory in progress must end (interrupted, or motion_abort_ says why). An abort
