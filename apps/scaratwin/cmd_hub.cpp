@@ -177,9 +177,9 @@ Status serve(Hub& hub, const HubArgs& a, const std::optional<fleet::BrokerAddres
 // interrupted too).
 Status serve_all(const std::vector<NamedHub>& hubs, const HubArgs& a,
                  const std::optional<fleet::BrokerAddress>& broker) {
-  std::vector<std::future<Status>> served;
+  std::vector<std::future<void>> served;
   std::mutex mu;
-  bool ending = false;
+  std::optional<Status> first;  // the first session to end says why they all ended
   for (const NamedHub& h : hubs) {
     served.push_back(std::async(std::launch::async, [&, h] {
       HubArgs own = a;
@@ -187,22 +187,16 @@ Status serve_all(const std::vector<NamedHub>& hubs, const HubArgs& a,
       own.log_prefix = h.name + ": ";
       Status s = serve(*h.hub, own, broker);
       std::lock_guard<std::mutex> lock(mu);
-      if (!ending) {
-        ending = true;
-        for (const NamedHub& other : hubs) {
-          if (other.hub != h.hub) other.hub->interrupt();
-        }
+      if (first) return;
+      first =
+          s ? s : Error{s.error().code, fmt::format("robot '{}': {}", h.name, s.error().message)};
+      for (const NamedHub& other : hubs) {
+        if (other.hub != h.hub) other.hub->interrupt();
       }
-      if (!s) s = Error{s.error().code, fmt::format("robot '{}': {}", h.name, s.error().message)};
-      return s;
     }));
   }
-  Status first = Ok{};
-  for (auto& f : served) {
-    Status s = f.get();
-    if (first && !s) first = std::move(s);
-  }
-  return first;
+  for (auto& f : served) f.get();
+  return first ? *first : Status{Ok{}};
 }
 
 int run_hub(const CommonOptions& common, const LinkArgs& l, HubArgs a) {
