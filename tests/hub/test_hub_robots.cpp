@@ -475,6 +475,58 @@ TEST_F(HubRobots, TheCommandLinePicksTheRobotByName) {
   EXPECT_EQ(left->state().steps[0], 24667);
 }
 
+// `scaratwin hub --workcell` without --robot drives every robot: each one's port is
+// NAME=DEVICE, and every mistake in them is refused (exit 2) before any port is opened, so the
+// robot on the port that was right hears nothing.
+TEST_F(HubRobots, AHubOfEveryRobotRefusesPortsItCannotMatch) {
+  auto left = fake();
+  ASSERT_TRUE(left);
+  const std::string cell = kWorkcell.string();
+  const std::string at_left = "left=" + left->device_path();
+  const std::string sim = fmt::format("127.0.0.1:{}", port_);
+  const struct {
+    std::vector<std::string> args;
+    std::string error;
+  } cases[] = {
+      {{"--serial", at_left},
+       "scaratwin hub: no serial port for robot 'right': pass --serial right=DEVICE (one for each "
+       "of 'left', 'right')"},
+      {{"--serial", left->device_path()},
+       fmt::format("scaratwin hub: --serial '{}': this hub drives 2 robots ('left', 'right'); "
+                   "give each one's port as --serial NAME=DEVICE",
+                   left->device_path())},
+      {{"--serial", at_left, "--serial", "arm7=/dev/null"},
+       "scaratwin hub: --serial 'arm7=/dev/null': no robot named 'arm7' in the workcell (robots: "
+       "'left', 'right')"},
+      {{"--serial", at_left, "--serial", "left=/dev/null"},
+       "scaratwin hub: --serial names robot 'left' twice"},
+      {{"--serial", at_left, "--serial", "right=" + left->device_path()},
+       fmt::format("scaratwin hub: --serial: robots 'left' and 'right' are both on {}; each "
+                   "robot has a port of its own",
+                   left->device_path())},
+      {{"--serial", at_left, "--serial", "right=/dev/null", "--name", "r1"},
+       fmt::format("scaratwin hub: --name: this hub drives the 2 robots of {} under their own "
+                   "names ('left', 'right'); --robot NAME drives one of them alone",
+                   cell)},
+  };
+  for (const auto& c : cases) {
+    std::vector<std::string> args{"hub", "--workcell", cell, "--sim", sim, "--no-db"};
+    args.insert(args.end(), c.args.begin(), c.args.end());
+    const Outcome o = run_cli(args);
+    EXPECT_EQ(o.status, 2) << o.output;
+    EXPECT_NE(o.output.find(c.error), std::string::npos) << o.output;
+  }
+  // a command of one robot given two ports
+  const Outcome o = run_cli(
+      {"home", "--serial", left->device_path(), "--serial", "/dev/null", "--sim", sim, "--no-db"});
+  EXPECT_EQ(o.status, 2) << o.output;
+  EXPECT_NE(o.output.find("scaratwin home: --serial given 2 times: this command drives one robot "
+                          "('robot')"),
+            std::string::npos)
+      << o.output;
+  EXPECT_TRUE(left->received_codes().empty());
+}
+
 // issue 13: one process holds a hub per robot of a workcell, each with its robot's interface
 // (a fake here) and its own simulator link naming its robot; both drive their arms of one
 // simulator at once, and each arm of the simulator ends where its own robot's counts put it
