@@ -8,21 +8,25 @@
 1;
 
 function line = next_line(s, timeout_s)
-  % the next line from the firmware, as the companion scripts read one: wait for bytes, give
-  % the line time to arrive whole, readline (Octave's readline keeps only the first line of
-  % what is waiting, so the test keeps one reply in flight at a time)
+  % the next line from the firmware: the bytes as they come, split at the line feed, what
+  % follows kept for the next call. Not Octave's readline: on a line that is not whole yet
+  % (the emulated robot paused mid-line on a loaded machine) instrument-control 0.8's readline
+  % calls read(dev) without a count, which fails ("Invalid call to read").
+  persistent pending;
+  if isempty(pending), pending = ''; end
   t0 = tic;
-  while s.NumBytesAvailable == 0
+  while isempty(strfind(pending, "\n"))
     assert(toc(t0) < timeout_s, 'no line from the firmware within %g s', timeout_s);
-    pause(0.01);
-  end
-  % the whole line: wait until no more bytes come (readline fails on a partial one)
-  n = -1;
-  while s.NumBytesAvailable ~= n
     n = s.NumBytesAvailable;
-    pause(0.05);
+    if n > 0
+      pending = [pending, char(reshape(read(s, n), 1, []))];
+    else
+      pause(0.01);
+    end
   end
-  line = strtrim(readline(s));
+  k = strfind(pending, "\n")(1);
+  line = strtrim(pending(1:k - 1));
+  pending = pending(k + 1:end);
 end
 
 function counts = truth(side)
