@@ -380,6 +380,15 @@ TEST(FleetHub, OneHubDrivesEveryRobotOfAWorkcell) {
     auto ready = (*hub)->wait_for_line(fmt::format("scaratwin hub: robot '{}' ready", name), 60s);
     ASSERT_TRUE(ready) << (*hub)->output_tail();
   }
+  // "ready" comes before the broker's answer: a command published then would reach no
+  // subscriber and be lost. Each bridge subscribes to its command topic before it publishes
+  // "online", and the broker keeps one client's packets in order, so "online" means subscribed.
+  for (const char* name : names) {
+    ASSERT_TRUE(peer.wait(
+        fmt::format("scaratwin/v1/{}/connection", name),
+        [](const Message& m) { return m.payload == "online"; }, 30s))
+        << name << (*hub)->output_tail();
+  }
   Truth truth[2] = {Truth(side[0]), Truth(side[1])};
 
   // both home at once: two commands out, two replies back, each on its robot's topic
