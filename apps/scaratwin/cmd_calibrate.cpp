@@ -46,6 +46,12 @@ int run_calibrate(const CommonOptions& common, const CalibrateArgs& a) {
                  "camera server answering `grab W H`, docs/calibration.md)\n");
     return kExitUsage;
   }
+  if (!a.camera.empty() && !parse_host_port(a.camera)) {
+    std::fprintf(stderr,
+                 "scaratwin calibrate: --camera '%s': expected HOST:PORT (a port of 1..65535)\n",
+                 a.camera.c_str());
+    return kExitUsage;
+  }
   namespace fs = std::filesystem;
   const fs::path base =
       common.config_path.empty() ? default_robot_config_path() : fs::path(common.config_path);

@@ -2,10 +2,12 @@
 // returns the process exit code when run.
 #pragma once
 
+#include <cstdint>
 #include <filesystem>
 #include <functional>
 #include <optional>
 #include <string>
+#include <string_view>
 
 #include <CLI/CLI.hpp>
 
@@ -57,5 +59,13 @@ std::optional<std::filesystem::path> create_out_dir(const std::string& dir, cons
 
 // Parses "d1_m,q2_deg,q3_deg,q4_deg" into SI joints; prints the error on failure.
 std::optional<JointVector> joints_from_edge(const std::vector<double>& values, const char* what);
+
+// An address option's "HOST:PORT": the host before the last ':' (not empty) and a port of
+// 1..65535 in decimal digits with nothing after them; nullopt for anything else.
+struct HostPort {
+  std::string host;
+  std::uint16_t port = 0;
+};
+std::optional<HostPort> parse_host_port(std::string_view text);
 
 }  // namespace scaratwin::cli

@@ -203,15 +203,10 @@ Result<std::vector<RobotLink>> robot_links(const CommonOptions& common, const Li
   if (!chosen) return chosen.error();
   auto ports = serial_ports(*cell, *chosen, l, kind);
   if (!ports) return ports.error();
-  const size_t colon = l.sim.rfind(':');
-  int port = 0;
-  try {
-    port = colon == std::string::npos ? 0 : std::stoi(l.sim.substr(colon + 1));
-  } catch (...) {
-  }
-  if (colon == std::string::npos || port <= 0 || port > 65535) {
+  const auto sim = parse_host_port(l.sim);
+  if (!sim) {
     return Error{error_code(ConfigError::kInvalid),
-                 fmt::format("--sim '{}': expected HOST:PORT", l.sim)};
+                 fmt::format("--sim '{}': expected HOST:PORT (a port of 1..65535)", l.sim)};
   }
   std::string token = l.sim_token;
   if (token.empty()) {
@@ -230,8 +225,8 @@ Result<std::vector<RobotLink>> robot_links(const CommonOptions& common, const Li
     o.base = instance.base;
     o.report_rate_hz = l.report_hz;
     o.serial_device = (*ports)[n];
-    o.sim_host = l.sim.substr(0, colon);
-    o.sim_port = static_cast<std::uint16_t>(port);
+    o.sim_host = sim->host;
+    o.sim_port = sim->port;
     o.sim_token = token;
     o.description_source = instance.description_file;
     if (chosen->size() > 1) o.log_name = instance.name;  // says which robot a message is of

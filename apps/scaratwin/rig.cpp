@@ -6,6 +6,8 @@
 
 #include <fmt/format.h>
 
+#include "commands.hpp"
+
 namespace scaratwin::cli {
 
 using namespace std::chrono_literals;
@@ -104,11 +106,13 @@ Result<Rig> start_rig(const RigOptions& o, const std::filesystem::path& log_dir)
       cam_port = static_cast<std::uint16_t>(std::stoi(cam_line->substr(cam_line->rfind(':') + 1)));
     }
   } else if (!o.camera.empty()) {
-    const auto c = o.camera.rfind(':');
-    if (c == std::string::npos)
-      return Error{AppError::kBadOption, "--camera: expected host:port, got " + o.camera};
-    host = o.camera.substr(0, c);
-    cam_port = static_cast<std::uint16_t>(std::stoi(o.camera.substr(c + 1)));
+    const auto camera = parse_host_port(o.camera);
+    if (!camera) {
+      return Error{AppError::kBadOption,
+                   "--camera '" + o.camera + "': expected HOST:PORT (a port of 1..65535)"};
+    }
+    host = camera->host;
+    cam_port = camera->port;
   }
   if (cam_port != 0) {
     auto c = NetCamera::connect(host, cam_port);

@@ -71,6 +71,11 @@ TEST(Cli, BadInputExitsTwoNamingTheValue) {
       {{"mirror", "--report-hz", "0", "--serial", "/dev/null"}, "--report-hz"},
       {{"fk", "--config", "/nonexistent/robot.toml", "0.12", "0", "0", "0"},
        "/nonexistent/robot.toml"},
+      // an address is HOST:PORT with nothing after the port's digits
+      {{"mirror", "--serial", "/dev/null", "--sim", "127.0.0.1:55016x"}, "127.0.0.1:55016x"},
+      {{"mirror", "--serial", "/dev/null", "--sim", ":55016"}, "':55016'"},
+      {{"mirror", "--serial", "/dev/null", "--sim", "127.0.0.1:65536"}, "65536"},
+      {{"calibrate", "--serial", "/dev/null", "--camera", "127.0.0.1:cam"}, "127.0.0.1:cam"},
   };
   for (const auto& [args, named] : cases) {
     const Outcome o = run_cli(args);
