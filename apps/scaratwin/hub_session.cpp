@@ -125,13 +125,13 @@ Result<std::vector<int>> chosen_robots(const Workcell& cell, const LinkArgs& l, 
 // with several, --serial NAME=DEVICE once for each.
 Result<std::vector<std::string>> serial_ports(const Workcell& cell, const std::vector<int>& chosen,
                                               const LinkArgs& l, const std::string& kind) {
-  const Error usage{error_code(ConfigError::kInvalid), ""};
+  const int invalid = error_code(ConfigError::kInvalid);
   if (chosen.size() == 1) {
     const std::string& name = cell.robots[static_cast<std::size_t>(chosen[0])].name;
     if (l.serial.size() > 1) {
-      return Error{usage.code, fmt::format("--serial given {} times: this command drives one "
-                                           "robot ('{}')",
-                                           l.serial.size(), name)};
+      return Error{invalid, fmt::format("--serial given {} times: this command drives one "
+                                        "robot ('{}')",
+                                        l.serial.size(), name)};
     }
     std::string device = l.serial.empty() ? std::string() : l.serial[0];
     // NAME=DEVICE naming this very robot is accepted too
@@ -140,7 +140,7 @@ Result<std::vector<std::string>> serial_ports(const Workcell& cell, const std::v
       if (const char* env = std::getenv("SCARATWIN_SERIAL")) device = env;
     }
     if (device.empty()) {
-      return Error{usage.code,
+      return Error{invalid,
                    "no robot: pass --serial DEVICE or set SCARATWIN_SERIAL (start one with "
                    "`scaratwin robot`)"};
     }
@@ -151,21 +151,21 @@ Result<std::vector<std::string>> serial_ports(const Workcell& cell, const std::v
   for (const std::string& given : l.serial) {
     const size_t eq = given.find('=');
     if (eq == std::string::npos || eq == 0 || eq + 1 == given.size()) {
-      return Error{usage.code,
+      return Error{invalid,
                    fmt::format("--serial '{}': this {} drives {} robots ({}); give each one's "
                                "port as --serial NAME=DEVICE",
                                given, kind, chosen.size(), robot_names(cell))};
     }
     auto k = robot_index(cell, given.substr(0, eq));
-    if (!k) return Error{usage.code, "--serial '" + given + "': " + k.error().message};
+    if (!k) return Error{invalid, "--serial '" + given + "': " + k.error().message};
     const std::string device = given.substr(eq + 1);
     const std::string& name = cell.robots[static_cast<std::size_t>(*k)].name;
     if (by_robot.count(*k) != 0) {
-      return Error{usage.code, fmt::format("--serial names robot '{}' twice", name)};
+      return Error{invalid, fmt::format("--serial names robot '{}' twice", name)};
     }
     if (auto other = by_device.find(device); other != by_device.end()) {
       return Error{
-          usage.code,
+          invalid,
           fmt::format("--serial: robots '{}' and '{}' are both on {}; each robot has a "
                       "port of its own",
                       cell.robots[static_cast<std::size_t>(other->second)].name, name, device)};
@@ -178,9 +178,9 @@ Result<std::vector<std::string>> serial_ports(const Workcell& cell, const std::v
     auto it = by_robot.find(k);
     if (it == by_robot.end()) {
       const std::string& name = cell.robots[static_cast<std::size_t>(k)].name;
-      return Error{usage.code, fmt::format("no serial port for robot '{}': pass --serial "
-                                           "{}=DEVICE (one for each of {})",
-                                           name, name, robot_names(cell))};
+      return Error{invalid, fmt::format("no serial port for robot '{}': pass --serial "
+                                        "{}=DEVICE (one for each of {})",
+                                        name, name, robot_names(cell))};
     }
     ports.push_back(it->second);
   }
