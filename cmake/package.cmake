@@ -117,8 +117,8 @@ set(CPACK_DEBIAN_SCARATWIN_PACKAGE_NAME scaratwin)
 # loads Mesa's EGL (surfaceless platform) and its software rasterizer at run time: no linked
 # library names them
 set(CPACK_DEBIAN_SCARATWIN_PACKAGE_DEPENDS "libegl-mesa0, libgl1-mesa-dri")
-set(CPACK_DEBIAN_SCARATWIN_PACKAGE_RECOMMENDS "scaratwin-emulator (= ${deb_version})")
-set(CPACK_DEBIAN_SCARATWIN_PACKAGE_SUGGESTS "avrdude, chromium | firefox-esr")
+set(CPACK_DEBIAN_SCARATWIN_PACKAGE_RECOMMENDS "scaratwin-emulator (= ${deb_version}), avrdude")
+set(CPACK_DEBIAN_SCARATWIN_PACKAGE_SUGGESTS "chromium | firefox-esr")
 set(CPACK_DEBIAN_SCARATWIN_DESCRIPTION "digital twin of a desktop SCARA robot
 scaratwin develops a robot program against a virtual robot (MuJoCo physics,
 camera, gripper, a 3D view in the browser), then runs the same program on the

@@ -12,6 +12,7 @@ packages=(
   libmujoco-dev libqhull-dev libegl-dev libgl-dev libopengl-dev libegl-mesa0 libgl1-mesa-dri
   libpng-dev libapriltag-dev
   gcc-avr avr-libc binutils-avr arduino-core-avr simavr libsimavr-dev libsimavrparts1 libelf-dev
+  avrdude
   clang libclang-rt-14-dev
   chromium
   pybind11-dev python3-dev python3-numpy python3-pytest python3-pandas python3-matplotlib

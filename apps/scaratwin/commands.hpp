@@ -34,6 +34,7 @@ void add_demo_command(CLI::App& app, CommonOptions& common, Runner& run);
 void add_calibrate_command(CLI::App& app, CommonOptions& common, Runner& run);
 void add_statement_commands(CLI::App& app, CommonOptions& common, Runner& run);
 void add_hub_command(CLI::App& app, CommonOptions& common, Runner& run);
+void add_flash_command(CLI::App& app, CommonOptions& common, Runner& run);
 
 void add_model_command(CLI::App& app, CommonOptions& common, Runner& run);
 void add_sim_command(CLI::App& app, CommonOptions& common, Runner& run);

@@ -25,6 +25,7 @@ int main(int argc, char** argv) {
   add_calibrate_command(app, common, run);
   add_statement_commands(app, common, run);
   add_hub_command(app, common, run);
+  add_flash_command(app, common, run);
   add_bench_command(app, common, run);
   // the first word that is not an option must name a subcommand: say which word is unknown
   // (CLI11 would answer "A subcommand is required", or show the help and exit 0 with --help)

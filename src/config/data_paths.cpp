@@ -81,6 +81,10 @@ fs::path firmware_image(std::string_view board, std::string_view extension) {
          fmt::format("scaratwin-fw-{}.{}", board, extension);
 }
 
+fs::path bootloader_image() {
+  return data_paths().firmware_dir / "bootloader" / "optiboot-uno.hex";
+}
+
 std::string missing_data_message(std::string_view what, const fs::path& path) {
   const DataPaths& p = data_paths();
   if (!p.problem.empty())

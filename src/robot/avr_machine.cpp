@@ -9,6 +9,7 @@
 #include <cstdlib>
 #include <cstring>
 #include <map>
+#include <mutex>
 
 extern "C" {
 #include <simavr/avr_eeprom.h>
@@ -33,6 +34,12 @@ void log_to_stderr(avr_t*, const int level, const char* format, va_list ap) {
 // simavr calls this while the firmware sleeps; the run loop paces the emulation itself
 void no_sleep(avr_t*, avr_cycle_count_t) {}
 
+avr_cycle_count_t profile_hook(avr_t* avr, avr_cycle_count_t when, void* param);
+
+// simavr's reset hook has no user pointer: the machine of each core
+std::mutex g_machines_mu;
+std::map<avr_t*, AvrMachine*> g_machines;
+
 void fix_simavr_defaults(avr_t* avr) {
   for (int i = 0; i < 2; ++i) avr_extint_set_strict_lvl_trig(avr, static_cast<uint8_t>(i), 0);
   std::uint32_t flags = 0;
@@ -50,7 +57,7 @@ Result<std::unique_ptr<AvrMachine>> AvrMachine::load(const std::string& elf_path
   std::unique_ptr<AvrMachine> m(new AvrMachine());
   m->fw_ = static_cast<elf_firmware_t*>(std::calloc(1, sizeof(elf_firmware_t)));
   elf_firmware_t& fw = *m->fw_;
-  if (elf_read_firmware(elf_path.c_str(), &fw) != 0) {
+  if (!elf_path.empty() && elf_read_firmware(elf_path.c_str(), &fw) != 0) {
     return Error{EmulatorError::kFirmware,
                  "cannot read firmware ELF '" + elf_path +
                      "': build it (target firmware_uno) or pass --firmware PATH"};
@@ -62,12 +69,20 @@ Result<std::unique_ptr<AvrMachine>> AvrMachine::load(const std::string& elf_path
   std::snprintf(fw.mmcu, sizeof fw.mmcu, "%s", mcu.c_str());
   fw.frequency = frequency_hz;
   avr->frequency = frequency_hz;
-  avr_load_firmware(avr, &fw);
+  if (!elf_path.empty()) avr_load_firmware(avr, &fw);
+  // code may run anywhere in the flash: a bootloader at its end, a firmware it writes
+  avr->codeend = avr->flashend;
   avr->sleep = no_sleep;
   fix_simavr_defaults(avr);
 
   m->avr_ = avr;
   m->frequency_ = frequency_hz;
+  m->core_reset_ = avr->reset;
+  avr->reset = &AvrMachine::reset_hook;
+  {
+    std::lock_guard<std::mutex> lock(g_machines_mu);
+    g_machines[avr] = m.get();
+  }
   m->uart_in_ = avr_io_getirq(avr, AVR_IOCTL_UART_GETIRQ('0'), UART_IRQ_INPUT);
   avr_irq_register_notify(avr_io_getirq(avr, AVR_IOCTL_UART_GETIRQ('0'), UART_IRQ_OUTPUT),
                           &AvrMachine::uart_out_hook, m.get());
@@ -80,6 +95,10 @@ Result<std::unique_ptr<AvrMachine>> AvrMachine::load(const std::string& elf_path
 
 AvrMachine::~AvrMachine() {
   if (avr_ != nullptr) {
+    {
+      std::lock_guard<std::mutex> lock(g_machines_mu);
+      g_machines.erase(avr_);
+    }
     avr_terminate(avr_);
     std::free(avr_);
   }
@@ -178,6 +197,76 @@ bool AvrMachine::set_eeprom(std::span<const std::uint8_t> bytes) {
   return std::equal(bytes.begin(), bytes.end(), now.begin());
 }
 
+std::span<const std::uint8_t> AvrMachine::flash() const {
+  return {avr_->flash, static_cast<std::size_t>(avr_->flashend) + 1};
+}
+
+bool AvrMachine::set_flash(std::span<const std::uint8_t> bytes) {
+  if (bytes.size() != flash().size()) return false;
+  std::copy(bytes.begin(), bytes.end(), avr_->flash);
+  return true;
+}
+
+bool AvrMachine::write_flash(std::uint32_t byte_address, std::span<const std::uint8_t> bytes) {
+  if (byte_address > flash().size() || bytes.size() > flash().size() - byte_address) return false;
+  std::copy(bytes.begin(), bytes.end(), avr_->flash + byte_address);
+  return true;
+}
+
+void AvrMachine::set_reset_vector(std::uint32_t byte_address) {
+  avr_->reset_pc = byte_address;
+  avr_->pc = byte_address;  // power-up starts there too (MCUSR holds PORF)
+}
+
+bool AvrMachine::in_boot_section() const {
+  return avr_->reset_pc != 0 && avr_->pc >= avr_->reset_pc;
+}
+
+void AvrMachine::reset_hook(avr_t* avr) {
+  AvrMachine* self = nullptr;
+  {
+    std::lock_guard<std::mutex> lock(g_machines_mu);
+    auto it = g_machines.find(avr);
+    if (it != g_machines.end()) self = it->second;
+  }
+  if (self == nullptr) return;
+  if (self->core_reset_ != nullptr) self->core_reset_(avr);
+  ++self->resets_;
+  self->reset_seen_ = true;
+  self->reset_cycle_ = avr->cycle;
+}
+
+void AvrMachine::reset_external() {
+  ++external_resets_;
+  avr_reset(avr_);
+  avr_regbit_set(avr_, avr_->reset_flags.extrf);
+  after_reset();
+}
+
+bool AvrMachine::restart_blank_loop() {
+  if (avr_->flash[0] != 0xff || avr_->flash[1] != 0xff) return false;
+  // the stack pointer (SPH:SPL at 0x5e:0x5d) more than 256 bytes below the top of the RAM
+  const unsigned sp = avr_->data[0x5d] | (static_cast<unsigned>(avr_->data[0x5e]) << 8);
+  if (sp + 256 > avr_->ramend) return false;
+  avr_reset(avr_);
+  avr_regbit_set(avr_, avr_->reset_flags.porf);
+  after_reset();
+  return true;
+}
+
+void AvrMachine::after_reset() {
+  if (!reset_seen_) return;
+  reset_seen_ = false;
+  // some simavr versions restart the cycle counter at a reset: the emulated clock goes on
+  if (avr_->cycle < reset_cycle_) avr_->cycle = reset_cycle_;
+  if (profile_period_ > 0) avr_cycle_timer_register(avr_, profile_period_, profile_hook, this);
+  // the UART's receiver starts disabled and empty: simavr's back-pressure starts over
+  xoff_ = false;
+  for (char port = 'B'; port <= 'D'; ++port) {
+    if (driven_[port - 'B'].hooked) reassert(port);
+  }
+}
+
 void AvrMachine::on_uart_output(ByteCallback cb) { uart_out_ = std::move(cb); }
 
 void AvrMachine::uart_send(std::uint8_t byte) {
@@ -211,6 +300,11 @@ bool AvrMachine::run_until(std::uint64_t cycle) {
   while (alive && avr_->cycle < cycle) {
     const int state = avr_run(avr_);
     alive = state != cpu_Done && state != cpu_Crashed;
+    if (reset_seen_) {
+      // a watchdog reset (the bootloader leaving for the firmware, say) dropped the timers
+      after_reset();
+      if (avr_->cycle < cycle) avr_cycle_timer_register(avr_, cycle - avr_->cycle, stop_here, this);
+    }
   }
   // a skip ends one cycle past the target, before simavr ran the timer: drop it
   avr_cycle_timer_cancel(avr_, stop_here, this);

@@ -32,7 +32,8 @@ class AvrMachine {
   using PinCallback = std::function<void(bool level)>;
   using ByteCallback = std::function<void(std::uint8_t byte)>;
 
-  // Loads `elf_path` into a new `mcu` ("atmega328p") running at `frequency_hz`.
+  // Loads `elf_path` into a new `mcu` ("atmega328p") running at `frequency_hz`; an empty path
+  // leaves the flash erased (0xff), as on a new chip.
   static Result<std::unique_ptr<AvrMachine>> load(const std::string& elf_path,
                                                   const std::string& mcu,
                                                   std::uint32_t frequency_hz);
@@ -58,6 +59,33 @@ class AvrMachine {
   // The span points into simavr's own EEPROM memory (valid as long as the machine).
   std::span<const std::uint8_t> eeprom() const;
   bool set_eeprom(std::span<const std::uint8_t> bytes);
+
+  // The MCU's flash (32 KiB on the ATmega328P), byte-addressed: what is programmed now (the
+  // bootloader writes it with SPM) and programming it from outside (at power-up, as an ISP
+  // programmer would). set_flash() is false when the size is not the MCU's; write_flash()
+  // when the bytes do not fit.
+  // The span points into simavr's own flash memory (valid as long as the machine).
+  std::span<const std::uint8_t> flash() const;
+  bool set_flash(std::span<const std::uint8_t> bytes);
+  bool write_flash(std::uint32_t byte_address, std::span<const std::uint8_t> bytes);
+  // The BOOTRST fuse: every reset, power-up included, starts at `byte_address` (the boot
+  // section, where a bootloader lives) instead of 0. Before the first run_until().
+  void set_reset_vector(std::uint32_t byte_address);
+  // Whether the program counter is in the boot section (false without a reset vector).
+  bool in_boot_section() const;
+  // The RESET pin pulled low and released (what a Uno's USB chip does when the host opens the
+  // port): the MCU restarts at its reset vector with EXTRF in MCUSR, its registers and I/O in
+  // their reset state; flash, EEPROM and the emulated clock go on.
+  void reset_external();
+  // A new board (its application erased): optiboot leaves for the application, which runs
+  // through the erased flash into the bootloader again, a return address deeper on the stack
+  // each pass (about 1 ms). A chip goes on looping; simavr stops, and writes beyond its RAM,
+  // once the stack leaves the RAM. This starts such a board over (a power-on reset) while its
+  // stack is still in RAM; true when it did. Call it at least every 100 ms of emulated time.
+  bool restart_blank_loop();
+  // Resets since power-up: every one (the watchdog's too), and the external ones.
+  std::uint32_t resets() const { return resets_; }
+  std::uint32_t external_resets() const { return external_resets_; }
 
   // Runs until the cycle counter reaches `cycle` (the last instruction may end a few cycles
   // past it); while the firmware sleeps its idle cycles are skipped, not emulated, and the
@@ -88,7 +116,10 @@ class AvrMachine {
   static void xon_hook(avr_irq_t* irq, std::uint32_t value, void* param);
   static void xoff_hook(avr_irq_t* irq, std::uint32_t value, void* param);
   static void port_write_hook(avr_irq_t* irq, std::uint32_t value, void* param);
+  static void reset_hook(avr_t* avr);
   void reassert(char port);
+  // after any reset: simavr dropped every cycle timer and the UART's state
+  void after_reset();
 
   avr_t* avr_ = nullptr;
   elf_firmware_t* fw_ = nullptr;  // owned: simavr allocates its buffers, freed with it
@@ -106,6 +137,11 @@ class AvrMachine {
   };
   Driven driven_[3];
   bool reasserting_ = false;
+  void (*core_reset_)(avr_t*) = nullptr;  // the core's own reset hook, called first
+  std::uint32_t resets_ = 0;
+  std::uint32_t external_resets_ = 0;
+  bool reset_seen_ = false;        // a reset since the last after_reset()
+  std::uint64_t reset_cycle_ = 0;  // the cycle it happened at
   std::uint32_t profile_period_ = 0;
   std::uint64_t profile_sleep_ = 0;
   std::vector<std::uint32_t> profile_pc_;  // samples per word address

@@ -1,6 +1,8 @@
 // SPDX-License-Identifier: GPL-3.0-or-later (scaratwin-robot emulator, see emulator.hpp)
 #include "emulator.hpp"
 
+#include "intel_hex.hpp"
+
 #include <poll.h>
 #include <unistd.h>
 
@@ -78,6 +80,10 @@ Result<std::vector<ScenarioStep>> parse_scenario(const std::string& text) {
   return steps;
 }
 
+namespace {
+constexpr double kBootS = 0.05;  // emulated time by which the firmware has set up its pins
+}  // namespace
+
 Emulator::Emulator(const EmulatorOptions& o, std::unique_ptr<AvrMachine> m, PtyLink pty,
                    SideChannel side)
     : options_(o),
@@ -101,7 +107,7 @@ Result<std::unique_ptr<Emulator>> Emulator::create(const EmulatorOptions& option
   }
   auto machine = AvrMachine::load(options.firmware, options.mcu, 16000000);
   if (!machine) return machine.error();
-  auto pty = PtyLink::open();
+  auto pty = PtyLink::open(options.auto_reset);
   if (!pty) return pty.error();
   auto side = SideChannel::listen(options.side_port);
   if (!side) return side.error();
@@ -120,6 +126,8 @@ Result<std::unique_ptr<Emulator>> Emulator::create(const EmulatorOptions& option
       e->camera_port_.emplace(std::move(cam).value());
     }
   }
+  if (Status st = e->load_flash(); !st) return st.error();
+  e->host_present_ = !options.auto_reset;
   e->wire_pins();
   if (Status st = e->load_eeprom(); !st) return st.error();
   for (const auto& s : e->scenario_) {
@@ -184,6 +192,91 @@ Status Emulator::load_eeprom() {
   }
   eeprom_saved_ = std::move(bytes);
   return Ok{};
+}
+
+Status Emulator::load_flash() {
+  const std::string& path = options_.flash_file;
+  const std::size_t size = avr_->flash().size();
+  bool programmed = !options_.firmware.empty();
+  if (!path.empty() && options_.firmware.empty()) {
+    std::ifstream f(path, std::ios::binary);
+    if (f) {
+      std::vector<std::uint8_t> bytes((std::istreambuf_iterator<char>(f)),
+                                      std::istreambuf_iterator<char>());
+      if (!avr_->set_flash(bytes)) {
+        return Error{EmulatorError::kBadOption,
+                     fmt::format("--flash {}: {} bytes, but the {}'s flash holds {} (give a file "
+                                 "an earlier run wrote, or a new path)",
+                                 path, bytes.size(), options_.mcu, size)};
+      }
+    } else {
+      programmed = true;  // a new board: its flash as it came (the bootloader, if any)
+    }
+  }
+  if (!options_.bootloader.empty()) {
+    auto chunks = read_intel_hex(options_.bootloader);
+    if (!chunks) return Error{EmulatorError::kBadOption, "--bootloader " + chunks.error().message};
+    if (chunks->empty()) {
+      return Error{EmulatorError::kBadOption, "--bootloader " + options_.bootloader + ": no data"};
+    }
+    std::uint32_t start = UINT32_MAX;
+    for (const HexChunk& c : *chunks) start = std::min(start, c.address);
+    // a boot section is at most the upper half of the flash (BOOTSZ)
+    if (start < size / 2) {
+      return Error{EmulatorError::kBadOption,
+                   fmt::format("--bootloader {}: it starts at 0x{:04x}, not in a boot section "
+                               "(0x{:04x} and up on the {})",
+                               options_.bootloader, start, size / 2, options_.mcu)};
+    }
+    for (const HexChunk& c : *chunks) {
+      if (c.address + c.bytes.size() > size) {
+        return Error{EmulatorError::kBadOption,
+                     fmt::format("--bootloader {}: bytes at 0x{:04x} beyond the {}'s {} bytes",
+                                 options_.bootloader, c.address, options_.mcu, size)};
+      }
+      // a flash file holds its bootloader already: the programmer writes it on a new chip
+      if (programmed) avr_->write_flash(c.address, c.bytes);
+    }
+    avr_->set_reset_vector(start);
+  }
+  const auto now = avr_->flash();
+  if (!path.empty() && programmed) {
+    flash_saved_.clear();  // write it now: the file is the board's flash from here on
+    save_flash_if_changed();
+  }
+  flash_saved_.assign(now.begin(), now.end());
+  return Ok{};
+}
+
+void Emulator::save_flash_if_changed() {
+  if (options_.flash_file.empty()) return;
+  const auto now = avr_->flash();
+  if (std::equal(now.begin(), now.end(), flash_saved_.begin(), flash_saved_.end())) return;
+  const std::string tmp = options_.flash_file + ".new";
+  {
+    std::ofstream f(tmp, std::ios::binary | std::ios::trunc);
+    f.write(reinterpret_cast<const char*>(now.data()), static_cast<std::streamsize>(now.size()));
+    if (!f) {
+      std::fprintf(stderr, "scaratwin-robot: cannot write the flash to %s\n", tmp.c_str());
+      return;
+    }
+  }
+  if (std::rename(tmp.c_str(), options_.flash_file.c_str()) != 0) {
+    std::fprintf(stderr, "scaratwin-robot: cannot write the flash to %s\n",
+                 options_.flash_file.c_str());
+    return;
+  }
+  flash_saved_.assign(now.begin(), now.end());
+}
+
+void Emulator::watch_host(double now_s) {
+  for (int n = pty_.take_first_opens(); n > 0; --n) {
+    // DTR asserted: the USB chip's capacitor pulls RESET low for a moment
+    avr_->reset_external();
+    boot_until_s_ = now_s + kBootS;
+    drop_backlog_ = true;
+  }
+  host_present_ = pty_.host_open();
 }
 
 void Emulator::save_eeprom_if_changed() {
@@ -282,7 +375,7 @@ std::string Emulator::truth_line() const {
                 "TR wall_us=%llu mono_us=%llu sim_us=%llu z=%d j2=%d j3=%d wrist_cdeg=%d "
                 "grip_cdeg=%d endstops=%u buttons=%u steps_z=%llu steps_j2=%llu steps_j3=%llu "
                 "last_step_sim_us=%llu last_rx_sim_us=%llu span_z=%llu:%llu span_j2=%llu:%llu "
-                "span_j3=%llu:%llu",
+                "span_j3=%llu:%llu resets=%u wdt_resets=%u boot=%d",
                 static_cast<unsigned long long>(clock_us(CLOCK_REALTIME)),
                 static_cast<unsigned long long>(clock_us(CLOCK_MONOTONIC)),
                 static_cast<unsigned long long>(avr_->sim_us()), s[0], s[1], s[2],
@@ -297,7 +390,8 @@ std::string Emulator::truth_line() const {
                 static_cast<unsigned long long>(mech_.first_step_us(1)),
                 static_cast<unsigned long long>(mech_.last_step_us(1)),
                 static_cast<unsigned long long>(mech_.first_step_us(2)),
-                static_cast<unsigned long long>(mech_.last_step_us(2)));
+                static_cast<unsigned long long>(mech_.last_step_us(2)), avr_->external_resets(),
+                avr_->resets() - avr_->external_resets(), avr_->in_boot_section() ? 1 : 0);
   std::string line = buf;
   if (!plant_) return line + " plant=ideal";
   // the robot as built: the true motor positions are the rotors', and the truth adds the
@@ -408,6 +502,13 @@ std::string Emulator::command(const std::string& line, int client) {
     mech_.mark();
     return "OK mark";
   }
+  if (verb == "reset") {
+    // the board's reset button
+    avr_->reset_external();
+    boot_until_s_ = now_s + kBootS;
+    drop_backlog_ = true;
+    return "OK reset";
+  }
   if (verb == "rate") {
     double hz = -1;
     if (!(in >> hz) || hz < 0 || hz > 10000) return "ERR rate needs 0..10000 Hz";
@@ -476,18 +577,18 @@ std::string Emulator::command(const std::string& line, int client) {
     return "OK " + line;
   }
   return "ERR unknown command '" + verb +
-         "': use query, rate, mark, press, release, cut, lose, corrupt, endstop, cubes, place, "
-         "clear, payload, pattern";
+         "': use query, rate, mark, reset, press, release, cut, lose, corrupt, endstop, cubes, "
+         "place, clear, payload, pattern";
 }
 
 namespace {
-constexpr double kBootS = 0.05;       // emulated time by which the firmware has set up its pins
 constexpr double kIdleWaitS = 0.002;  // longest wait for a sleeping firmware's next event
 }  // namespace
 
 Status Emulator::run(const volatile bool& stop) {
   const std::uint64_t chunk = avr_->frequency() / 5000;  // 200 us of emulated time
-  const std::uint64_t wall0 = clock_us(CLOCK_MONOTONIC);
+  // wall-clock time of emulated time 0 (moves on when a reset drops a backlog, below)
+  std::uint64_t wall0 = clock_us(CLOCK_MONOTONIC);
   const double speed = options_.speed;
   // where the last wait ended: a sleeping firmware skips there (nothing happens before)
   std::uint64_t idle_to = 0;
@@ -496,17 +597,37 @@ Status Emulator::run(const volatile bool& stop) {
       return Error{EmulatorError::kFirmware, "the firmware stopped or crashed at t = " +
                                                  std::to_string(avr_->sim_seconds()) + " s"};
     }
+    avr_->restart_blank_loop();  // a new board, waiting for its firmware
     const double now_s = avr_->sim_seconds();
+    if (drop_backlog_ && speed > 0) {
+      // a reset starts the MCU over in real time: an emulation behind the wall clock (a busy
+      // host) does not rush through the bootloader's wait to catch up, which a host opening
+      // the port would then find already over
+      drop_backlog_ = false;
+      const std::uint64_t now_us = clock_us(CLOCK_MONOTONIC);
+      const std::uint64_t at_us = wall0 + static_cast<std::uint64_t>(now_s / speed * 1e6);
+      if (now_us > at_us) wall0 += now_us - at_us;
+    }
     save_eeprom_if_changed();  // before the firmware's reply to a CF can leave (pty_.flush)
+    if (avr_->in_boot_section()) {
+      boot_ran_ = true;
+      boot_until_s_ = now_s + kBootS;  // the firmware starts once the bootloader leaves
+    }
+    if (boot_ran_ && now_s - flash_checked_s_ >= 0.05) {
+      save_flash_if_changed();
+      boot_ran_ = avr_->in_boot_section();
+      flash_checked_s_ = now_s;
+    }
     if (plant_) {
       // the physical world catches up with the firmware's emulated time
       if (Status st = plant_->advance_to(now_s); !st) return st.error();
       update_endstops();
     }
     if (options_.duration_s > 0 && now_s >= options_.duration_s) break;
-    if (now_s < kBootS) {
+    if (now_s < boot_until_s_) {
       // the firmware's pin set-up (pull-ups) overrides a level driven before it: a switch
-      // closed at power-up holds its line low, so drive the switches again until it booted
+      // closed at power-up (or reset) holds its line low, so drive the switches again until
+      // the firmware booted
       endstops_driven_ = 0xff;
       update_endstops();
     }
@@ -521,7 +642,12 @@ Status Emulator::run(const volatile bool& stop) {
         release_at_s_[b] = 0;
       }
     }
-    pty_.flush();
+    // no host has the port open: what the firmware sends is lost, as the USB chip's is
+    if (host_present_) {
+      pty_.flush();
+    } else {
+      pty_.discard();
+    }
     // wait for the wall clock (paced), handling input as it arrives; unpaced: just look.
     // A sleeping firmware does nothing until its next timer event: wait for that (or for the
     // next scenario step or button release) rather than for every chunk's end, then skip to
@@ -555,6 +681,7 @@ Status Emulator::run(const volatile bool& stop) {
       const long wait_us = due_us > now_us ? static_cast<long>(due_us - now_us) : 0;
       std::vector<pollfd> fds;
       fds.push_back({pty_.master_fd(), POLLIN, 0});
+      fds.push_back({pty_.host_events_fd(), POLLIN, 0});  // -1 (ignored) without auto-reset
       fds.push_back({side_.listen_fd(), POLLIN, 0});
       for (int fd : side_.client_fds()) fds.push_back({fd, POLLIN, 0});
       const std::size_t camera_from = fds.size();
@@ -564,6 +691,7 @@ Status Emulator::run(const volatile bool& stop) {
       }
       timespec ts{wait_us / 1000000, (wait_us % 1000000) * 1000};
       ppoll(fds.data(), fds.size(), &ts, nullptr);
+      if (fds[1].revents & POLLIN) watch_host(avr_->sim_seconds());
       if (fds[0].revents & POLLIN) {
         // the sleeping firmware gets the byte when the wall clock got it (a skip: nothing
         // happens before until_s)
@@ -575,7 +703,7 @@ Status Emulator::run(const volatile bool& stop) {
       // the side channel only when a client connects, sends or leaves (a system call per
       // client less on each pass)
       bool side_ready = false;
-      for (std::size_t i = 1; i < camera_from; ++i) side_ready = side_ready || fds[i].revents != 0;
+      for (std::size_t i = 2; i < camera_from; ++i) side_ready = side_ready || fds[i].revents != 0;
       if (side_ready) side_.poll([this](const std::string& l, int c) { return command(l, c); });
       bool camera_ready = false;
       for (std::size_t i = camera_from; i < fds.size(); ++i) {
@@ -590,7 +718,8 @@ Status Emulator::run(const volatile bool& stop) {
     if (!host_byte && speed > 0) idle_to = cycle_at(clock_us(CLOCK_MONOTONIC));
   }
   save_eeprom_if_changed();
-  pty_.flush();
+  save_flash_if_changed();
+  if (host_present_) pty_.flush();
   return Ok{};
 }
 

@@ -27,7 +27,20 @@
 namespace scaratwin::robot {
 
 struct EmulatorOptions {
-  std::string firmware;  // ELF path
+  // The firmware ELF, programmed into the flash at power-up as an ISP programmer would; empty:
+  // the flash as the flash file holds it (or erased, on a new board).
+  std::string firmware;
+  // The bootloader (Intel HEX, e.g. Debian's optiboot_atmega328.hex) in the boot section, where
+  // every reset starts (the BOOTRST fuse); empty: none, resets start the firmware at 0.
+  std::string bootloader;
+  // Non-volatile flash: the whole flash loaded from this file at power-up when no firmware is
+  // given (absent: a new board) and written back (by rename) whenever the bootloader changed
+  // it, as EEPROM is. Empty: the flash lives as long as the run.
+  std::string flash_file;
+  // A Uno's auto-reset: a host opening the serial port (the pty's slave side) resets the MCU,
+  // as the USB chip's DTR line does. False: the board with its auto-reset cut (a 10 uF
+  // capacitor RESET-GND); the port is then held open and never resets the MCU.
+  bool auto_reset = true;
   std::string mcu = "atmega328p";
   double speed = 1.0;       // emulated seconds per wall second; 0 = unpaced
   double duration_s = 0.0;  // stop after this much emulated time; 0 = run until signalled
@@ -90,6 +103,9 @@ class Emulator {
   bool link_cut() const;
   Status load_eeprom();
   void save_eeprom_if_changed();
+  Status load_flash();
+  void save_flash_if_changed();
+  void watch_host(double now_s);
 
   EmulatorOptions options_;
   std::unique_ptr<AvrMachine> avr_;
@@ -124,6 +140,12 @@ class Emulator {
   std::uint8_t endstop_forced_mask_ = 0;
   std::uint8_t endstop_forced_closed_ = 0;
   std::vector<std::uint8_t> eeprom_saved_;  // the EEPROM as last loaded or written
+  std::vector<std::uint8_t> flash_saved_;   // the flash as last loaded or written
+  bool boot_ran_ = false;                   // the bootloader ran since the flash was last compared
+  double flash_checked_s_ = 0.0;            // emulated time of that comparison
+  bool host_present_ = false;               // a host has the port open (always, without auto-reset)
+  bool drop_backlog_ = false;               // a reset: the pacing forgets how far behind it is
+  double boot_until_s_ = 0.05;  // drive the switches again until then (the firmware booting)
   std::vector<ScenarioStep> scenario_;
   std::size_t scenario_next_ = 0;
 };

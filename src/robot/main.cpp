@@ -36,19 +36,39 @@ void on_signal(int) { g_stop = true; }
 // the Uno image of the build tree or of the installed data folder (data_paths.hpp)
 std::string default_firmware() { return scaratwin::firmware_image("uno", "elf").string(); }
 
+// the Uno's bootloader: optiboot built from Debian's source (firmware/CMakeLists.txt)
+std::string default_bootloader() { return scaratwin::bootloader_image().string(); }
+
 }  // namespace
 
 int main(int argc, char** argv) {
   using namespace scaratwin;
   robot::EmulatorOptions opt;
-  opt.firmware = default_firmware();
+  std::string firmware = "auto";
+  std::string bootloader = default_bootloader();
+  bool no_auto_reset = false;
   std::string config_path;
   std::vector<int> start_steps;
   CLI::App app{
       "scaratwin-robot: the physical SCARA emulated: its firmware in simavr, its serial "
       "port on a pty, the true motor positions on a TCP side channel (GPL-3.0-or-later)",
       "scaratwin-robot"};
-  app.add_option("--firmware", opt.firmware, "firmware ELF (Uno build)")->capture_default_str();
+  app.add_option("--firmware", firmware,
+                 "firmware ELF (Uno build) programmed into the flash at power-up, as an ISP "
+                 "programmer would; 'none': the flash as --flash holds it (a new board: only "
+                 "its bootloader, waiting for 'scaratwin flash'); 'auto': none when the --flash "
+                 "file exists, else the build's firmware")
+      ->capture_default_str();
+  app.add_option("--bootloader", bootloader,
+                 "the bootloader in the boot section, where every reset starts (Intel HEX; "
+                 "'none': resets start the firmware)")
+      ->capture_default_str();
+  app.add_option("--flash", opt.flash_file,
+                 "keep the flash in this file, as --eeprom keeps the EEPROM: what 'scaratwin "
+                 "flash' wrote through the bootloader survives a restart");
+  app.add_flag("--no-auto-reset", no_auto_reset,
+               "a board with its auto-reset cut (10 uF between RESET and GND): opening the port "
+               "does not reset the MCU (default: it does, as a Uno's USB chip does on DTR)");
   app.add_option("--speed", opt.speed, "emulated seconds per wall-clock second; 0 = unpaced")
       ->capture_default_str()
       ->check(CLI::Range(0.0, 1000.0));
@@ -99,6 +119,15 @@ int main(int argc, char** argv) {
                "terminate when the process that started the emulator dies (tests)");
   CLI11_PARSE(app, argc, argv);
   if (exit_with_parent) ::prctl(PR_SET_PDEATHSIG, SIGTERM);
+  opt.auto_reset = !no_auto_reset;
+  if (bootloader != "none") opt.bootloader = bootloader;
+  if (firmware == "auto") {
+    std::error_code ec;
+    const bool flashed = !opt.flash_file.empty() && std::filesystem::exists(opt.flash_file, ec);
+    if (!flashed) opt.firmware = default_firmware();
+  } else if (firmware != "none") {
+    opt.firmware = firmware;
+  }
 
   auto model = load_robot_config_or_default(config_path);
   if (!model) {
@@ -140,6 +169,12 @@ int main(int argc, char** argv) {
   }
   opt.camera_port = camera_port;
   if (!profile_path.empty()) opt.profile_cycles = 61;
+  if (std::error_code ec; !opt.bootloader.empty() && bootloader == default_bootloader() &&
+                          !std::filesystem::exists(opt.bootloader, ec)) {
+    std::fprintf(stderr, "scaratwin-robot: %s (or pass --bootloader FILE or none)\n",
+                 scaratwin::missing_data_message("bootloader", opt.bootloader).c_str());
+    return 1;
+  }
   if (std::error_code ec;
       opt.firmware == default_firmware() && !std::filesystem::exists(opt.firmware, ec)) {
     std::fprintf(stderr, "scaratwin-robot: %s (or pass --firmware PATH)\n",
@@ -159,8 +194,13 @@ int main(int argc, char** argv) {
       return 1;
     }
   }
-  std::printf("scaratwin-robot: firmware %s on %s at 16 MHz, speed %g\n", opt.firmware.c_str(),
+  std::printf("scaratwin-robot: firmware %s on %s at 16 MHz, speed %g\n",
+              opt.firmware.empty() ? (opt.flash_file.empty() ? "(none)" : opt.flash_file.c_str())
+                                   : opt.firmware.c_str(),
               opt.mcu.c_str(), opt.speed);
+  std::printf("bootloader: %s; auto-reset on open: %s\n",
+              opt.bootloader.empty() ? "none" : opt.bootloader.c_str(),
+              opt.auto_reset ? "yes" : "no");
   if (opt.plant) {
     std::printf("plant: as-built (seed %llu)\n",
                 static_cast<unsigned long long>(as_built_seed >= 0

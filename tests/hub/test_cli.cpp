@@ -219,40 +219,7 @@ TEST(Cli, ModelWritesAWorkcell) {
 }
 
 // One truth sample of the emulator's side channel, as key=value pairs.
-std::map<std::string, std::string> truth(int side_port) {
-  std::map<std::string, std::string> t;
-  const int fd = ::socket(AF_INET, SOCK_STREAM, 0);
-  sockaddr_in addr{};
-  addr.sin_family = AF_INET;
-  addr.sin_port = htons(static_cast<std::uint16_t>(side_port));
-  addr.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
-  if (::connect(fd, reinterpret_cast<sockaddr*>(&addr), sizeof addr) != 0) {
-    ::close(fd);
-    return t;
-  }
-  const std::string cmd = "rate 0\nquery\n";
-  ::send(fd, cmd.data(), cmd.size(), MSG_NOSIGNAL);
-  std::string buf;
-  char tmp[4096];
-  for (;;) {
-    const auto at = buf.find("\nTR ");
-    const auto start = buf.rfind("TR ", 0) == 0 ? 0 : (at == std::string::npos ? at : at + 1);
-    if (start != std::string::npos && buf.find('\n', start) != std::string::npos) {
-      std::istringstream in(buf.substr(start, buf.find('\n', start) - start));
-      std::string tok;
-      while (in >> tok) {
-        const auto eq = tok.find('=');
-        if (eq != std::string::npos) t[tok.substr(0, eq)] = tok.substr(eq + 1);
-      }
-      break;
-    }
-    const ssize_t n = ::recv(fd, tmp, sizeof tmp, 0);
-    if (n <= 0) break;
-    buf.append(tmp, static_cast<std::size_t>(n));
-  }
-  ::close(fd);
-  return t;
-}
+using test::truth;
 
 // A script is parsed whole before anything moves: a syntax error on its last line leaves the
 // robot where it was. The robot starts away from home (so "still at home" would prove

@@ -46,6 +46,7 @@ for f in /usr/bin/scaratwin /usr/bin/scaratwin-sim \
   /usr/share/scaratwin/firmware/uno/scaratwin-fw-uno.hex \
   /usr/share/scaratwin/firmware/uno/scaratwin-fw-uno.elf \
   /usr/share/scaratwin/firmware/mega/scaratwin-fw-mega.hex \
+  /usr/share/scaratwin/firmware/bootloader/optiboot-uno.hex \
   /usr/share/scaratwin/web/index.html /usr/share/scaratwin/web/vendor/three/three.module.js \
   /usr/lib/libscaratwin_kinematics.a /usr/include/scaratwin/kinematics/kinematics.hpp \
   /usr/lib/cmake/scaratwin/scaratwinConfig.cmake \

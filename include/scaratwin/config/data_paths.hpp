@@ -42,6 +42,9 @@ const DataPaths& data_paths();
 
 // The firmware image of a board ("uno", "mega"), extension "elf" or "hex".
 std::filesystem::path firmware_image(std::string_view board, std::string_view extension);
+// The Uno's bootloader (optiboot, built from Debian's source):
+// <firmware_dir>/bootloader/optiboot-uno.hex.
+std::filesystem::path bootloader_image();
 
 // A message for a data file that cannot be read: names `path`, says what it is (`what`, such as
 // "robot description"), and, when the data folder itself is missing, where it was looked for
