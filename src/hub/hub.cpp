@@ -189,6 +189,9 @@ Result<std::unique_ptr<Hub>> Hub::connect(const RobotModel& model,
       return hub_error(fmt::format("physical robot on {} did not answer hello within {} s: {}",
                                    t->robot_if_->where(), o.hello_timeout_s, r.error().message));
     }
+    // a board in its bootloader took that hello as its own and will never answer it: a later
+    // reply answers the next hello, not this one
+    t->robot_->forget_abandoned();
   }
   auto hi = t->sim_->request(sim_hello(o, description), ms(o.hello_timeout_s));
   if (!hi && refused_described_hello(hi.error())) {

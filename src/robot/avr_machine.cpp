@@ -259,6 +259,7 @@ void AvrMachine::after_reset() {
   reset_seen_ = false;
   // some simavr versions restart the cycle counter at a reset: the emulated clock goes on
   if (avr_->cycle < reset_cycle_) avr_->cycle = reset_cycle_;
+  last_reset_cycle_ = avr_->cycle;
   if (profile_period_ > 0) avr_cycle_timer_register(avr_, profile_period_, profile_hook, this);
   // the UART's receiver starts disabled and empty: simavr's back-pressure starts over
   xoff_ = false;

@@ -86,6 +86,11 @@ class AvrMachine {
   // Resets since power-up: every one (the watchdog's too), and the external ones.
   std::uint32_t resets() const { return resets_; }
   std::uint32_t external_resets() const { return external_resets_; }
+  // Emulated microseconds since the last reset (power-up included): the clock the firmware's
+  // micros() counts, which starts over at every reset.
+  std::uint64_t us_since_reset() const {
+    return (cycle() - last_reset_cycle_) * 1000000ULL / frequency_;
+  }
 
   // Runs until the cycle counter reaches `cycle` (the last instruction may end a few cycles
   // past it); while the firmware sleeps its idle cycles are skipped, not emulated, and the
@@ -142,6 +147,7 @@ class AvrMachine {
   std::uint32_t external_resets_ = 0;
   bool reset_seen_ = false;        // a reset since the last after_reset()
   std::uint64_t reset_cycle_ = 0;  // the cycle it happened at
+  std::uint64_t last_reset_cycle_ = 0;  // the cycle of the latest reset
   std::uint32_t profile_period_ = 0;
   std::uint64_t profile_sleep_ = 0;
   std::vector<std::uint32_t> profile_pc_;  // samples per word address

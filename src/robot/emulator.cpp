@@ -82,7 +82,31 @@ Result<std::vector<ScenarioStep>> parse_scenario(const std::string& text) {
 
 namespace {
 constexpr double kBootS = 0.05;  // emulated time by which the firmware has set up its pins
+
+// Writes a non-volatile memory's bytes `now` to `path` when they differ from `saved` (which
+// then becomes them): a new file renamed over the old one, so a run killed in the middle
+// leaves one or the other. Nothing without a path.
+void keep_memory(const std::string& path, std::span<const std::uint8_t> now,
+                 std::vector<std::uint8_t>& saved, const char* what) {
+  if (path.empty()) return;
+  if (std::equal(now.begin(), now.end(), saved.begin(), saved.end())) return;
+  const std::string tmp = path + ".new";
+  {
+    std::ofstream f(tmp, std::ios::binary | std::ios::trunc);
+    f.write(reinterpret_cast<const char*>(now.data()), static_cast<std::streamsize>(now.size()));
+    if (!f) {
+      std::fprintf(stderr, "scaratwin-robot: cannot write the %s to %s\n", what, tmp.c_str());
+      return;
+    }
+  }
+  if (std::rename(tmp.c_str(), path.c_str()) != 0) {
+    std::fprintf(stderr, "scaratwin-robot: cannot write the %s to %s\n", what, path.c_str());
+    return;
+  }
+  saved.assign(now.begin(), now.end());
+}
 }  // namespace
+
 
 Emulator::Emulator(const EmulatorOptions& o, std::unique_ptr<AvrMachine> m, PtyLink pty,
                    SideChannel side)
@@ -249,24 +273,7 @@ Status Emulator::load_flash() {
 }
 
 void Emulator::save_flash_if_changed() {
-  if (options_.flash_file.empty()) return;
-  const auto now = avr_->flash();
-  if (std::equal(now.begin(), now.end(), flash_saved_.begin(), flash_saved_.end())) return;
-  const std::string tmp = options_.flash_file + ".new";
-  {
-    std::ofstream f(tmp, std::ios::binary | std::ios::trunc);
-    f.write(reinterpret_cast<const char*>(now.data()), static_cast<std::streamsize>(now.size()));
-    if (!f) {
-      std::fprintf(stderr, "scaratwin-robot: cannot write the flash to %s\n", tmp.c_str());
-      return;
-    }
-  }
-  if (std::rename(tmp.c_str(), options_.flash_file.c_str()) != 0) {
-    std::fprintf(stderr, "scaratwin-robot: cannot write the flash to %s\n",
-                 options_.flash_file.c_str());
-    return;
-  }
-  flash_saved_.assign(now.begin(), now.end());
+  keep_memory(options_.flash_file, avr_->flash(), flash_saved_, "flash");
 }
 
 void Emulator::watch_host(double now_s) {
@@ -280,25 +287,7 @@ void Emulator::watch_host(double now_s) {
 }
 
 void Emulator::save_eeprom_if_changed() {
-  if (options_.eeprom_file.empty()) return;
-  const auto now = avr_->eeprom();
-  if (std::equal(now.begin(), now.end(), eeprom_saved_.begin(), eeprom_saved_.end())) return;
-  // a new file renamed over the old one: a run killed in the middle leaves one or the other
-  const std::string tmp = options_.eeprom_file + ".new";
-  {
-    std::ofstream f(tmp, std::ios::binary | std::ios::trunc);
-    f.write(reinterpret_cast<const char*>(now.data()), static_cast<std::streamsize>(now.size()));
-    if (!f) {
-      std::fprintf(stderr, "scaratwin-robot: cannot write the EEPROM to %s\n", tmp.c_str());
-      return;
-    }
-  }
-  if (std::rename(tmp.c_str(), options_.eeprom_file.c_str()) != 0) {
-    std::fprintf(stderr, "scaratwin-robot: cannot write the EEPROM to %s\n",
-                 options_.eeprom_file.c_str());
-    return;
-  }
-  eeprom_saved_.assign(now.begin(), now.end());
+  keep_memory(options_.eeprom_file, avr_->eeprom(), eeprom_saved_, "EEPROM");
 }
 
 void Emulator::update_endstops() {
@@ -436,7 +425,8 @@ std::string Emulator::camera_command(const std::string& line) {
   }
   auto img = camera_->grab(*plant_, w, h);
   if (!img) return "ERR the camera cannot render: " + img.error().message;
-  std::string out = fmt::format("FRAME {} {} {} {} {}\n", camera_->frames(), avr_->sim_us(),
+  // stamped on the board's clock (the firmware's micros(), which starts over at a reset)
+  std::string out = fmt::format("FRAME {} {} {} {} {}\n", camera_->frames(), avr_->us_since_reset(),
                                 img->width_px, img->height_px, img->rgb.size());
   out.append(reinterpret_cast<const char*>(img->rgb.data()), img->rgb.size());
   return out;

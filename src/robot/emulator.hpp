@@ -57,7 +57,7 @@ struct EmulatorOptions {
   };
   std::optional<PlantSetup> plant;
   // The real camera over the physical table (as-built only): a TCP port on 127.0.0.1 (0 = any
-  // free one, -1 = no camera). "grab <w> <h>" is answered "FRAME <n> <sim_us> <w> <h> <bytes>"
+  // free one, -1 = no camera). "grab <w> <h>" is answered "FRAME <n> <board_us> <w> <h> <bytes>"
   // and that many bytes of RGB (row 0 at the top), then a newline.
   int camera_port = 0;
   std::uint32_t profile_cycles = 0;  // > 0: sample the firmware's program counter this often

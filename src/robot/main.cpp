@@ -57,7 +57,7 @@ int main(int argc, char** argv) {
                  "firmware ELF (Uno build) programmed into the flash at power-up, as an ISP "
                  "programmer would; 'none': the flash as --flash holds it (a new board: only "
                  "its bootloader, waiting for 'scaratwin flash'); 'auto': none when the --flash "
-                 "file exists, else the build's firmware")
+                 "file exists, else " + default_firmware())
       ->capture_default_str();
   app.add_option("--bootloader", bootloader,
                  "the bootloader in the boot section, where every reset starts (Intel HEX; "

@@ -490,6 +490,25 @@ Status Channel<Out, In>::send_realtime(protocol::Realtime command) {
 }
 
 template <class Out, class In>
+void Channel<Out, In>::forget_abandoned() {
+  std::vector<typename State::Completion> done;
+  {
+    std::lock_guard lock(state_->mutex);
+    auto& pending = state_->pending;
+    for (auto it = pending.begin(); it != pending.end();) {
+      if ((*it)->abandoned) {
+        state_->outstanding -= std::min(state_->outstanding, (*it)->bytes.size());
+        it = pending.erase(it);
+      } else {
+        ++it;
+      }
+    }
+    state_->flush(done);  // the window they held is free
+  }
+  State::run(done);
+}
+
+template <class Out, class In>
 void Channel<Out, In>::fail_pending(const std::string& why) {
   std::vector<typename State::Completion> done;
   {

@@ -121,7 +121,10 @@ class Side {
   std::string buf_;
 };
 
-// The emulated robot (pty at dir/robot.pty) and the simulator, ready.
+// The emulated robot (pty at dir/robot.pty) and the simulator, ready. The faults are each a
+// statement of its own, each opening the port on one robot state (a move left running by a
+// killed hub, a halt): the board with its auto-reset cut, which a reset at every open would
+// otherwise end (tests/hub/test_board.cpp has the board that resets).
 struct Rig {
   std::unique_ptr<ChildProcess> robot, sim;
   fs::path dir, pty;
@@ -133,7 +136,8 @@ struct Rig {
     pty = dir / "robot.pty";
     auto r =
         ChildProcess::start(kBin / "scaratwin-robot",
-                            {"--pty-link", pty.string(), "--plant", "ideal"}, dir / "robot.log");
+                            {"--pty-link", pty.string(), "--plant", "ideal", "--no-auto-reset"},
+                            dir / "robot.log");
     ASSERT_TRUE(r) << r.error().message;
     robot = std::move(*r);
     auto s =

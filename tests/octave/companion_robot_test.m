@@ -67,6 +67,17 @@ side = tcpclient('127.0.0.1', side_port);
 write(side, uint8(sprintf('rate 0\n')));
 pause(0.3);
 if side.NumBytesAvailable > 0, read(side, side.NumBytesAvailable); end
+% a Uno resets when its port opens, and so does the emulated one: the firmware starts after
+% about 1.5 s in the bootloader, so ask for its hello until it answers
+t0 = tic;
+seen = '';
+while isempty(strfind(seen, 'HI=1=scara'))
+  assert(toc(t0) < 20, 'no hello from the firmware within 20 s');
+  writeline(s, 'HI=1=');
+  pause(0.5);
+  n = s.NumBytesAvailable;
+  if n > 0, seen = [seen, char(reshape(read(s, n), 1, []))]; end
+end
 % setup in version 1 (the same port): no state reports, the dialect on, home
 writeline(s, 'SR=0=');
 pause(0.3);

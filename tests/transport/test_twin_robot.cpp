@@ -63,6 +63,8 @@ Result<RobotChannel::Reply> greet(RobotChannel& channel) {
   for (;;) {
     auto hello = channel.request(protocol::Hello{}, Duration{500});
     if (hello || std::chrono::steady_clock::now() >= end) return hello;
+    // the board's bootloader took that hello (the port's open reset it): never answered
+    channel.forget_abandoned();
   }
 }
 

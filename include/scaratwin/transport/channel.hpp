@@ -82,6 +82,12 @@ class Channel {
   // abandoned, so that late replies are still matched by their codes (as after a timeout).
   void fail_pending(const std::string& why);
 
+  // Forgets the sent requests that timed out and still wait in line for a late reply. After
+  // the peer restarted (a board resets when its port opens, and its bootloader takes the first
+  // bytes as its own), their replies never come, and every later reply of the same code would
+  // be taken for the oldest of them instead of for the request it answers.
+  void forget_abandoned();
+
   void set_unsolicited_handler(UnsolicitedHandler handler);
   // Link state changes, forwarded (the channel itself uses the link's state handler).
   void set_state_handler(Link::StateHandler handler);
