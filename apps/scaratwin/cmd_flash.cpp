@@ -41,6 +41,13 @@ void add_flash_command(CLI::App& app, CommonOptions& common, Runner& run) {
                      a->hex.empty() ? " (build the target firmware_uno, or pass --hex FILE)" : "");
         return kExitUsage;
       }
+      if (!std::filesystem::exists(o.port, ec)) {
+        std::fprintf(stderr,
+                     "scaratwin flash: --serial %s: no such port (a Uno is usually "
+                     "/dev/ttyACM0: ls /dev/ttyACM* /dev/ttyUSB* after plugging it in)\n",
+                     o.port.c_str());
+        return kExitUsage;
+      }
       std::printf("flashing %s into the board on %s with %s\n", o.hex.c_str(), o.port.c_str(),
                   o.avrdude.c_str());
       std::fflush(stdout);

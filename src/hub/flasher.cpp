@@ -193,17 +193,22 @@ Result<FlashResult> flash_board(const FlashOptions& o,
     std::string why;
     for (const std::string& l : result.avrdude_output) {
       const bool reason =
-          (l.rfind("avrdude error", 0) == 0 || l.find("not in sync") != std::string::npos) &&
+          (l.rfind("avrdude error", 0) == 0 || l.rfind("avrdude OS error", 0) == 0 ||
+           l.find("not in sync") != std::string::npos) &&
           l.find("ioctl(") == std::string::npos;
       if (reason) why += (why.empty() ? "" : "; ") + l;
     }
     if (why.empty() && !result.avrdude_output.empty()) why = result.avrdude_output.back();
     // what the board runs now: the old firmware where nothing was written
     auto now = board_hello(o.port, {}, 4.0);
-    const std::string after =
-        now && now->size() >= 3
-            ? fmt::format("the board still runs {} {}", (*now)[1], (*now)[2])
-            : "the board does not answer a hello now (no firmware runs: flash it again)";
+    std::string after;
+    if (now && now->size() >= 3) {
+      after = fmt::format("the board still runs {} {}", (*now)[1], (*now)[2]);
+    } else if (!now && now.error().code == static_cast<int>(HubError::kNotReady)) {
+      after = "the board does not answer a hello now (no firmware runs: flash it again)";
+    } else {
+      after = now ? "the board answers an unknown hello" : now.error().message;
+    }
     return Error{HubError::kFailed,
                  fmt::format("avrdude refused to flash {} ({}): {}; {}", o.port,
                              status < 0 ? fmt::format("killed by signal {}", -status)

@@ -158,41 +158,9 @@ Result<std::unique_ptr<Hub>> Hub::connect(const RobotModel& model,
   // one may also be the robot's own after a reset (a real board resets when the port opens),
   // so only a second one in a row counts as a v1 robot's.
   const std::string description = description_hash(model);
-  const auto deadline = std::chrono::steady_clock::now() + ms(o.hello_timeout_s);
-  bool described = true;
-  int undescribed_replies = 0;
-  for (;;) {
-    auto r = t->robot_->request(
-        pr::Hello{pr::kProtocolVersion, {}, {}, described ? description : "", std::nullopt},
-        milliseconds(500));
-    if (!r && described && refused_described_hello(r.error())) {
-      described = false;
-      continue;
-    }
-    if (r) {
-      const auto* hi = std::get_if<pr::PeerHello>(&r->last());
-      if (hi == nullptr || hi->version != pr::kProtocolVersion) {
-        return hub_error("physical robot: unexpected hello reply (protocol version mismatch?)");
-      }
-      if (Status s = check_description(
-              *hi, fmt::format("the physical robot's firmware on {}", t->robot_if_->where()),
-              description, o,
-              "build and flash the firmware for this description (cmake "
-              "-DSCARATWIN_ROBOT_DESCRIPTION=FILE), or start the hub with the firmware's --config");
-          !s) {
-        return s.error();
-      }
-      if (!described || !hi->description.empty() || ++undescribed_replies >= 2) break;
-      continue;
-    }
-    if (std::chrono::steady_clock::now() > deadline) {
-      return hub_error(fmt::format("physical robot on {} did not answer hello within {} s: {}",
-                                   t->robot_if_->where(), o.hello_timeout_s, r.error().message));
-    }
-    // a board in its bootloader took that hello as its own and will never answer it: a later
-    // reply answers the next hello, not this one
-    t->robot_->forget_abandoned();
-  }
+  // the simulator first: its channel's heartbeat starts with the connection, and a simulator
+  // admits a client on its first line, so a heartbeat sent while a board spends its 1.5 s in
+  // the bootloader would claim the whole simulator before the hello names the robot
   auto hi = t->sim_->request(sim_hello(o, description), ms(o.hello_timeout_s));
   if (!hi && refused_described_hello(hi.error())) {
     hi = t->sim_->request(sim_hello(o, ""), ms(o.hello_timeout_s));
@@ -215,6 +183,41 @@ Result<std::unique_ptr<Hub>> Hub::connect(const RobotModel& model,
                                    access_refusal(hi.error().message, o)));
     }
     return hub_error(fmt::format("simulator hello: {}", hi.error().message));
+  }
+  const auto deadline = std::chrono::steady_clock::now() + ms(o.hello_timeout_s);
+  bool described = true;
+  int undescribed_replies = 0;
+  for (;;) {
+    auto r = t->robot_->request(
+        pr::Hello{pr::kProtocolVersion, {}, {}, described ? description : "", std::nullopt},
+        milliseconds(500));
+    if (!r && described && refused_described_hello(r.error())) {
+      described = false;
+      continue;
+    }
+    if (r) {
+      const auto* board = std::get_if<pr::PeerHello>(&r->last());
+      if (board == nullptr || board->version != pr::kProtocolVersion) {
+        return hub_error("physical robot: unexpected hello reply (protocol version mismatch?)");
+      }
+      if (Status s = check_description(
+              *board, fmt::format("the physical robot's firmware on {}", t->robot_if_->where()),
+              description, o,
+              "build and flash the firmware for this description (cmake "
+              "-DSCARATWIN_ROBOT_DESCRIPTION=FILE), or start the hub with the firmware's --config");
+          !s) {
+        return s.error();
+      }
+      if (!described || !board->description.empty() || ++undescribed_replies >= 2) break;
+      continue;
+    }
+    if (std::chrono::steady_clock::now() > deadline) {
+      return hub_error(fmt::format("physical robot on {} did not answer hello within {} s: {}",
+                                   t->robot_if_->where(), o.hello_timeout_s, r.error().message));
+    }
+    // a board in its bootloader took that hello as its own and will never answer it: a later
+    // reply answers the next hello, not this one
+    t->robot_->forget_abandoned();
   }
   // the simulator hosts the robot this hub drives (protocol v2: its index names it), asked
   // before the robot is told anything more than hello

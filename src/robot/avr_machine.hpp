@@ -145,8 +145,8 @@ class AvrMachine {
   void (*core_reset_)(avr_t*) = nullptr;  // the core's own reset hook, called first
   std::uint32_t resets_ = 0;
   std::uint32_t external_resets_ = 0;
-  bool reset_seen_ = false;        // a reset since the last after_reset()
-  std::uint64_t reset_cycle_ = 0;  // the cycle it happened at
+  bool reset_seen_ = false;             // a reset since the last after_reset()
+  std::uint64_t reset_cycle_ = 0;       // the cycle it happened at
   std::uint64_t last_reset_cycle_ = 0;  // the cycle of the latest reset
   std::uint32_t profile_period_ = 0;
   std::uint64_t profile_sleep_ = 0;

@@ -107,7 +107,6 @@ void keep_memory(const std::string& path, std::span<const std::uint8_t> now,
 }
 }  // namespace
 
-
 Emulator::Emulator(const EmulatorOptions& o, std::unique_ptr<AvrMachine> m, PtyLink pty,
                    SideChannel side)
     : options_(o),
@@ -364,7 +363,7 @@ std::string Emulator::truth_line() const {
                 "TR wall_us=%llu mono_us=%llu sim_us=%llu z=%d j2=%d j3=%d wrist_cdeg=%d "
                 "grip_cdeg=%d endstops=%u buttons=%u steps_z=%llu steps_j2=%llu steps_j3=%llu "
                 "last_step_sim_us=%llu last_rx_sim_us=%llu span_z=%llu:%llu span_j2=%llu:%llu "
-                "span_j3=%llu:%llu resets=%u wdt_resets=%u boot=%d",
+                "span_j3=%llu:%llu resets=%u wdt_resets=%u boot=%d board_us=%llu",
                 static_cast<unsigned long long>(clock_us(CLOCK_REALTIME)),
                 static_cast<unsigned long long>(clock_us(CLOCK_MONOTONIC)),
                 static_cast<unsigned long long>(avr_->sim_us()), s[0], s[1], s[2],
@@ -380,7 +379,8 @@ std::string Emulator::truth_line() const {
                 static_cast<unsigned long long>(mech_.last_step_us(1)),
                 static_cast<unsigned long long>(mech_.first_step_us(2)),
                 static_cast<unsigned long long>(mech_.last_step_us(2)), avr_->external_resets(),
-                avr_->resets() - avr_->external_resets(), avr_->in_boot_section() ? 1 : 0);
+                avr_->resets() - avr_->external_resets(), avr_->in_boot_section() ? 1 : 0,
+                static_cast<unsigned long long>(avr_->us_since_reset()));
   std::string line = buf;
   if (!plant_) return line + " plant=ideal";
   // the robot as built: the true motor positions are the rotors', and the truth adds the

@@ -57,7 +57,8 @@ int main(int argc, char** argv) {
                  "firmware ELF (Uno build) programmed into the flash at power-up, as an ISP "
                  "programmer would; 'none': the flash as --flash holds it (a new board: only "
                  "its bootloader, waiting for 'scaratwin flash'); 'auto': none when the --flash "
-                 "file exists, else " + default_firmware())
+                 "file exists, else " +
+                     default_firmware())
       ->capture_default_str();
   app.add_option("--bootloader", bootloader,
                  "the bootloader in the boot section, where every reset starts (Intel HEX; "
@@ -66,9 +67,14 @@ int main(int argc, char** argv) {
   app.add_option("--flash", opt.flash_file,
                  "keep the flash in this file, as --eeprom keeps the EEPROM: what 'scaratwin "
                  "flash' wrote through the bootloader survives a restart");
+  bool auto_reset = false;
+  app.add_flag("--auto-reset", auto_reset,
+               "a Uno's auto-reset: opening the port resets the MCU, as the USB chip does on DTR "
+               "(not yet the default: docs/firmware.md)");
   app.add_flag("--no-auto-reset", no_auto_reset,
                "a board with its auto-reset cut (10 uF between RESET and GND): opening the port "
-               "does not reset the MCU (default: it does, as a Uno's USB chip does on DTR)");
+               "does not reset the MCU (the default for now)")
+      ->excludes("--auto-reset");
   app.add_option("--speed", opt.speed, "emulated seconds per wall-clock second; 0 = unpaced")
       ->capture_default_str()
       ->check(CLI::Range(0.0, 1000.0));
@@ -119,7 +125,7 @@ int main(int argc, char** argv) {
                "terminate when the process that started the emulator dies (tests)");
   CLI11_PARSE(app, argc, argv);
   if (exit_with_parent) ::prctl(PR_SET_PDEATHSIG, SIGTERM);
-  opt.auto_reset = !no_auto_reset;
+  opt.auto_reset = auto_reset && !no_auto_reset;
   if (bootloader != "none") opt.bootloader = bootloader;
   if (firmware == "auto") {
     std::error_code ec;

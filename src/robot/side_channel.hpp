@@ -7,13 +7,14 @@
 //      z=<steps> j2=<steps> j3=<steps> wrist_cdeg=<c> grip_cdeg=<c> endstops=<mask>
 //      buttons=<mask> steps_z=<n> steps_j2=<n> steps_j3=<n> last_step_sim_us=<us>
 //      last_rx_sim_us=<us> span_z=<first_us>:<last_us> span_j2=... span_j3=...
-//      resets=<n> wdt_resets=<n> boot=<0|1>
+//      resets=<n> wdt_resets=<n> boot=<0|1> board_us=<us>
 // (one line; z/j2/j3 are the true motor positions counted from the STEP/DIR pins; steps_* the
 // STEP pulses seen, including lost ones; last_rx_sim_us the emulated time at which the last
 // byte from the host entered the firmware's UART; span_* the emulated times of each axis's
 // first and last STEP pulse since the last `mark`, 0:0 when none; resets the external resets
 // since power-up (a host opening the port, the reset button), wdt_resets the watchdog's (the
-// bootloader leaves for the firmware through one), boot 1 while the MCU runs its bootloader.)
+// bootloader leaves for the firmware through one), boot 1 while the MCU runs its bootloader,
+// board_us the emulated time since the last reset: the firmware's micros() clock.)
 // With the robot as built (--plant as-built) z/j2/j3 are the rotors' true positions and the
 // line goes on with: plant=as-built d1_m=<m> q2_rad= q3_rad= q4_rad= (true joints)
 // tool_x_m= tool_y_m= tool_z_m= tool_yaw_rad= (true tool) lost_z= lost_j2= lost_j3= (steps

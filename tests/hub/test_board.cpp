@@ -120,9 +120,11 @@ struct Board {
   int side_port = 0;
 };
 
-void start_board(const fs::path& dir, const std::vector<std::string>& extra, Board* b) {
+void start_board(const fs::path& dir, const std::vector<std::string>& extra, Board* b,
+                 bool auto_reset = true) {
   b->pty = dir / "robot.pty";
-  std::vector<std::string> args{"--plant", "ideal", "--pty-link", b->pty.string()};
+  std::vector<std::string> args{"--plant", "ideal", "--pty-link", b->pty.string(),
+                                auto_reset ? "--auto-reset" : "--no-auto-reset"};
   args.insert(args.end(), extra.begin(), extra.end());
   auto robot = ChildProcess::start(kBin / "scaratwin-robot", args, dir / "robot.log");
   ASSERT_TRUE(robot) << robot.error().message;
@@ -185,7 +187,7 @@ TEST(UnoBoard, OpeningThePortResetsItUnhomedWithItsEepromKept) {
 TEST(UnoBoard, WithItsAutoResetCutOpeningThePortResetsNothing) {
   const fs::path dir = test::fresh_dir("board-no-reset");
   Board b;
-  ASSERT_NO_FATAL_FAILURE(start_board(dir, {"--no-auto-reset"}, &b));
+  ASSERT_NO_FATAL_FAILURE(start_board(dir, {}, &b, false));
   {
     Port p(b.pty);
     ASSERT_TRUE(p.hello());
@@ -232,6 +234,12 @@ TEST(UnoBoard, ANewBoardIsFlashedWithAvrdudeThroughItsBootloader) {
         start_board(dir, {"--firmware", "none", "--flash", flash.string()}, &b));
     auto blank = board_hello(b.pty.string(), {}, 3.0);
     EXPECT_FALSE(blank) << "a new board has no firmware to say hello";
+    const Outcome none =
+        test::run_program(kBin / "scaratwin", {"flash", "--serial", (dir / "none").string()});
+    EXPECT_EQ(none.status, 2) << none.output;
+    EXPECT_NE(none.output.find(fmt::format("--serial {}: no such port", (dir / "none").string())),
+              std::string::npos)
+        << none.output;
     const Outcome o =
         test::run_program(kBin / "scaratwin", {"flash", "--serial", b.pty.string()}, 180s);
     ASSERT_EQ(o.status, 0) << o.output;

@@ -134,10 +134,9 @@ struct Rig {
   void start(const fs::path& d) {
     dir = d;
     pty = dir / "robot.pty";
-    auto r =
-        ChildProcess::start(kBin / "scaratwin-robot",
-                            {"--pty-link", pty.string(), "--plant", "ideal", "--no-auto-reset"},
-                            dir / "robot.log");
+    auto r = ChildProcess::start(
+        kBin / "scaratwin-robot",
+        {"--pty-link", pty.string(), "--plant", "ideal", "--no-auto-reset"}, dir / "robot.log");
     ASSERT_TRUE(r) << r.error().message;
     robot = std::move(*r);
     auto s =

@@ -59,9 +59,10 @@ double field(const std::string& line, const char* key) {
   return std::stod(line.substr(at + k.size()));
 }
 
-// The truth at 200 Hz: when (mono), the true tool, J2's lost steps.
+// The truth at 200 Hz: when (mono; board: the firmware's clock, which starts over at the reset
+// the hub's open of the port made), the true tool, J2's lost steps.
 struct Truth {
-  std::uint64_t mono_us, sim_us;
+  std::uint64_t mono_us, board_us;
   double x, y;
   long long lost_j2;
 };
@@ -95,7 +96,7 @@ class TruthProbe {
           }
           std::lock_guard lock(mu_);
           all_.push_back({static_cast<std::uint64_t>(field(line, "mono_us")),
-                          static_cast<std::uint64_t>(field(line, "sim_us")),
+                          static_cast<std::uint64_t>(field(line, "board_us")),
                           field(line, "tool_x_m"), field(line, "tool_y_m"),
                           static_cast<long long>(field(line, "lost_j2"))});
         }
@@ -176,9 +177,9 @@ class ReportLog {
     thread_.join();
   }
   // the virtual robot's tool at robot time t (interpolated), if reports bracket it
-  std::optional<std::array<double, 2>> tool_at(const RobotModel& m, std::uint64_t sim_us) const {
+  std::optional<std::array<double, 2>> tool_at(const RobotModel& m, std::uint64_t board_us) const {
     std::lock_guard lock(mu_);
-    const auto t = static_cast<std::uint32_t>(sim_us);
+    const auto t = static_cast<std::uint32_t>(board_us);
     for (std::size_t i = 1; i < log_.size(); ++i) {
       const auto span = static_cast<std::int32_t>(log_[i].first - log_[i - 1].first);
       const auto off = static_cast<std::int32_t>(t - log_[i - 1].first);
@@ -308,7 +309,7 @@ TEST(LostSteps, SeenByTheCameraWithinTwoHundredMillisecondsAndCountedByHoming) {
   // the twin's uncalibrated error along the calm move: what "off" is measured from
   double calm_worst = 0.0;
   for (const Truth& t : calm) {
-    if (auto v = reports->tool_at(*model, t.sim_us)) {
+    if (auto v = reports->tool_at(*model, t.board_us)) {
       calm_worst = std::max(calm_worst, std::hypot(t.x - (*v)[0], t.y - (*v)[1]));
     }
   }
@@ -332,7 +333,7 @@ TEST(LostSteps, SeenByTheCameraWithinTwoHundredMillisecondsAndCountedByHoming) {
   // when the true tool first left the virtual one by 2 mm more than the calm run's worst
   std::optional<std::uint64_t> off_at;
   for (const Truth& t : wild) {
-    auto v = reports->tool_at(*model, t.sim_us);
+    auto v = reports->tool_at(*model, t.board_us);
     if (v && std::hypot(t.x - (*v)[0], t.y - (*v)[1]) > calm_worst + 0.002) {
       off_at = t.mono_us;
       break;

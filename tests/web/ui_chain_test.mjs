@@ -33,7 +33,9 @@ let mirror = null;
 let context = null;
 
 try {
-  chain = await startChain(bin, { robotArgs: ['--plant', 'ideal'] });
+  // `scaratwin home`, then `scaratwin mirror`: two processes, each opening the port, on one
+  // homed robot: the board with its auto-reset cut (a Uno would come back un-homed)
+  chain = await startChain(bin, { robotArgs: ['--plant', 'ideal', '--no-auto-reset'] });
   const { links, side, httpPort, dir } = chain;
 
   // the counts are the joints' only once homed
