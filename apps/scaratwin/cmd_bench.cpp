@@ -186,33 +186,6 @@ std::array<long, 3> companion_zero(const RobotModel& model) {
                                                static_cast<double>(j2_backed)))};
 }
 
-// A board whose port was just opened (a Uno resets then, 1.5 s in its bootloader): a hello
-// every 500 ms until the firmware answers, then QS= until it is at rest (with the companion
-// dialect on it homes by itself after the reset) and, with `homed`, homed.
-Status wait_board(transport::SerialLink& link, bool homed, double timeout_s) {
-  const auto until = std::chrono::steady_clock::now() + std::chrono::duration<double>(timeout_s);
-  bool hello = false;
-  while (!hello && std::chrono::steady_clock::now() < until) {
-    if (Status s = link.send("HI=1=\n"); !s) return s;
-    while (auto p = link.receive(transport::Duration(500))) {
-      if (p->line.rfind("HI=", 0) == 0) hello = true;
-    }
-  }
-  while (hello && std::chrono::steady_clock::now() < until) {
-    if (Status s = link.send("QS=\n"); !s) return s;
-    while (auto p = link.receive(transport::Duration(200))) {
-      long seq = 0, t = 0, z = 0, j2 = 0, j3 = 0, w = 0, g = 0, flags = 0, q = 0;
-      if (std::sscanf(p->line.c_str(), "ST=%ld=%ld=%ld=%ld=%ld=%ld=%ld=%ld=%ld=", &seq, &t, &z, &j2,
-                      &j3, &w, &g, &flags, &q) == 9 &&
-          (flags & 2) == 0 && (!homed || (flags & 1) != 0)) {
-        return Ok{};
-      }
-    }
-  }
-  return Error{AppError::kBench, hello ? "the robot did not come to rest after its reset"
-                                       : "the robot did not say hello after its port opened"};
-}
-
 // The robot's state over a raw serial link: QS= until the counts are `want` at rest.
 Status wait_counts(transport::SerialLink& link, const std::array<long, 3>& want, double timeout_s) {
   const auto until = std::chrono::steady_clock::now() + std::chrono::duration<double>(timeout_s);
@@ -282,8 +255,7 @@ Result<std::vector<ControlResult>> measure_control(const RobotModel& model, cons
       if (!back) return back.error();
       if (auto b = (*hub)->run_trajectory(*back); !b) return b.error();
     }
-    // the companion dialect on: after the reset the next open of the port makes, the firmware
-    // homes by itself, as the companion sketch does (the frame's zero is that homing's)
+    // the companion dialect on (the robot stays homed: the frame's zero is that homing's)
     if (Status s = (*hub)->set_setting(10, 1); !s) return s.error();
   }
   // single-class: the companion scripts' numberTran over the same port, raw
@@ -292,8 +264,6 @@ Result<std::vector<ControlResult>> measure_control(const RobotModel& model, cons
   auto link = transport::SerialLink::create(so);
   if (!link) return link.error();
   if (Status s = (*link)->wait_connected(transport::Duration(3000)); !s) return s.error();
-  // the open reset the board: the companion dialect's own homing after it sets the frame's zero
-  if (Status s = wait_board(**link, true, 90.0); !s) return s.error();
   (void)(*link)->send("SR=0=\n");
   std::this_thread::sleep_for(200ms);
   while ((*link)->receive(transport::Duration(50))) {
@@ -573,7 +543,6 @@ Result<std::vector<MappingResult>> measure_mapping(const RobotModel& model, cons
   auto link = transport::SerialLink::create(so);
   if (!link) return link.error();
   if (Status s = (*link)->wait_connected(transport::Duration(3000)); !s) return s.error();
-  if (Status s = wait_board(**link, false, 30.0); !s) return s.error();  // the open reset it
   (void)(*link)->send("SR=0=\n");
   drain(**link);
   (void)(*link)->send("CF=10=2=\n");
