@@ -276,13 +276,15 @@ void Emulator::save_flash_if_changed() {
 }
 
 void Emulator::watch_host(double now_s) {
-  for (int n = pty_.take_first_opens(); n > 0; --n) {
-    // DTR asserted: the USB chip's capacitor pulls RESET low for a moment
-    avr_->reset_external();
-    boot_until_s_ = now_s + kBootS;
-    drop_backlog_ = true;
-  }
+  // DTR asserted: the USB chip's capacitor pulls RESET low for a moment
+  for (int n = pty_.take_first_opens(); n > 0; --n) reset_board(now_s);
   host_present_ = pty_.host_open();
+}
+
+void Emulator::reset_board(double now_s) {
+  avr_->reset_external();
+  boot_until_s_ = now_s + kBootS;  // the switches driven again while it boots
+  drop_backlog_ = true;
 }
 
 void Emulator::save_eeprom_if_changed() {
@@ -493,10 +495,7 @@ std::string Emulator::command(const std::string& line, int client) {
     return "OK mark";
   }
   if (verb == "reset") {
-    // the board's reset button
-    avr_->reset_external();
-    boot_until_s_ = now_s + kBootS;
-    drop_backlog_ = true;
+    reset_board(now_s);  // the board's reset button
     return "OK reset";
   }
   if (verb == "rate") {

@@ -106,6 +106,8 @@ class Emulator {
   Status load_flash();
   void save_flash_if_changed();
   void watch_host(double now_s);
+  // An external reset at emulated time now_s (a host's open, the reset button).
+  void reset_board(double now_s);
 
   EmulatorOptions options_;
   std::unique_ptr<AvrMachine> avr_;
