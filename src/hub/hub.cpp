@@ -67,16 +67,14 @@ Status check_description(const pr::PeerHello& hi, const std::string& peer, const
                                hi.description, own, source, fix));
 }
 
-// What an ER,18 to the hub's hello means (docs/protocol.md section 6), from the refusal text.
-std::string access_refusal(const std::string& message, const HubOptions& o) {
-  if (message.find("detail 1") != std::string::npos) {
+// What an ER,18 to the hub's hello means (docs/protocol.md section 6), from its detail field.
+std::string access_refusal(const Error& refusal, const HubOptions& o) {
+  if (refusal.detail == 1) {
     return o.sim_token.empty() ? "it needs its access token (--sim-token or SCARATWIN_TOKEN)"
                                : "wrong access token";
   }
-  if (message.find("detail 2") != std::string::npos) {
-    return "another client controls it (stop that hub first)";
-  }
-  return message;
+  if (refusal.detail == 2) return "another client controls it (stop that hub first)";
+  return refusal.message;
 }
 
 }  // namespace
@@ -180,7 +178,7 @@ Result<std::unique_ptr<Hub>> Hub::connect(const RobotModel& model,
     if (hi.error().code == protocol_error_code(pr::kErrNoRobot)) return hub_error(no_sim_robot(o));
     if (hi.error().code == protocol_error_code(pr::kErrAccess)) {
       return hub_error(fmt::format("simulator at {}:{} refused the hub: {}", o.sim_host, o.sim_port,
-                                   access_refusal(hi.error().message, o)));
+                                   access_refusal(hi.error(), o)));
     }
     return hub_error(fmt::format("simulator hello: {}", hi.error().message));
   }
@@ -338,7 +336,7 @@ void Hub::on_sim_link(tr::LinkState state) {
           } else if (r || refused_described_hello(r.error())) {
             on_sim_answered();
           } else if (r.error().code == protocol_error_code(pr::kErrAccess)) {
-            say("the simulator refused the hub: " + access_refusal(r.error().message, options_));
+            say("the simulator refused the hub: " + access_refusal(r.error(), options_));
           }
         });
     return;

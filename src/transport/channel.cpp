@@ -104,8 +104,8 @@ struct Channel<Out, In>::State {
 
   void heartbeat_tick() {
     const std::int64_t now = steady_now_us();
-    const bool late = last_tick_us != 0 && now - last_tick_us > kHeartbeatTick.count() * 1000 +
-                                                                  kLateTickUs;
+    const bool late =
+        last_tick_us != 0 && now - last_tick_us > kHeartbeatTick.count() * 1000 + kLateTickUs;
     last_tick_us = now;
     if (late) return;
     std::vector<Completion> done;
@@ -290,7 +290,9 @@ struct Channel<Out, In>::State {
                                  core::error_name(static_cast<std::uint8_t>(er->code)) + " (" +
                                  std::to_string(er->code) + ")";
               if (er->detail) text += ", detail " + std::to_string(*er->detail);
-              done.emplace_back(std::move(e->handler), proto_error(er->code, text));
+              Error refused = proto_error(er->code, text);
+              if (er->detail) refused.detail = static_cast<int>(*er->detail);
+              done.emplace_back(std::move(e->handler), std::move(refused));
             } else {
               e->reply.messages.push_back(std::move(msg));
               done.emplace_back(std::move(e->handler), std::move(e->reply));

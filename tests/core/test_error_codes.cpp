@@ -255,9 +255,8 @@ TEST(ErrorCodes, TheDocsTablesAreTheHeaders) {
       }
     }
     for (const auto& [name, value] : d->second) {
-      EXPECT_EQ(codes.count(name), 1u)
-          << "docs/errors.md: " << enum_name << "::" << name << " = " << value
-          << " is not in error_codes.hpp";
+      EXPECT_EQ(codes.count(name), 1u) << "docs/errors.md: " << enum_name << "::" << name << " = "
+                                       << value << " is not in error_codes.hpp";
     }
   }
   for (const auto& [enum_name, codes] : doc.codes) {
@@ -281,6 +280,34 @@ TEST(ErrorCodes, NoSourceBuildsAnErrorFromABareNumber) {
         const auto line = 1 + std::count(text.begin(), text.begin() + static_cast<long>(at), '\n');
         ADD_FAILURE() << fs::relative(e.path(), kSource).string() << ":" << line << ": "
                       << text.substr(at, 40);
+      }
+    }
+  }
+  EXPECT_GT(files, 100);
+}
+
+// Errors keep their structure (a code, a peer's detail): no product code tells errors apart by
+// reading their text (message.find, ==, starts_with ...). Tests may read messages: they check
+// what a person sees.
+TEST(ErrorCodes, NoSourceReadsAnErrorsMessageText) {
+  int files = 0;
+  const std::vector<std::string> reads = {
+      "message.find(",        "message.rfind(",   "message ==",      "message==",
+      "message.starts_with(", "message.compare(", "message.substr(", "message().find("};
+  for (const char* dir : {"include", "src", "apps", "python/src", "examples", "bench"}) {
+    if (!fs::exists(kSource / dir)) continue;
+    for (const auto& e : fs::recursive_directory_iterator(kSource / dir)) {
+      const std::string ext = e.path().extension().string();
+      if (ext != ".cpp" && ext != ".hpp" && ext != ".h") continue;
+      ++files;
+      std::istringstream in(read_text(e.path()));
+      std::string line;
+      for (int n = 1; std::getline(in, line); ++n) {
+        for (const std::string& r : reads) {
+          if (line.find(r) != std::string::npos) {
+            ADD_FAILURE() << fs::relative(e.path(), kSource).string() << ":" << n << ": " << line;
+          }
+        }
       }
     }
   }

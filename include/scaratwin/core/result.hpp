@@ -6,6 +6,7 @@
 
 #include <cstdio>
 #include <cstdlib>
+#include <optional>
 #include <string>
 #include <type_traits>
 #include <utility>
@@ -23,11 +24,14 @@ struct Error {
   Error(int code_value, std::string text) : code(code_value), message(std::move(text)) {}
   // From a module's enum: Error{SimError::kOccupied, "..."}.
   template <typename E>
-    requires std::is_enum_v<E>
-  Error(E code_value, std::string text) : Error(static_cast<int>(code_value), std::move(text)) {}
+  requires std::is_enum_v<E> Error(E code_value, std::string text)
+      : Error(static_cast<int>(code_value), std::move(text)) {}
 
   int code = 0;
   std::string message;
+  // Where a peer refused with an ER reply that carried one: its detail field (docs/protocol.md
+  // section 6), so that no caller reads the message text to tell refusals apart.
+  std::optional<int> detail;
 };
 
 // Always-on check for programming errors (not for user input).
