@@ -10,11 +10,13 @@
 
 #include <fmt/format.h>
 #include <CLI/CLI.hpp>
+#include <nlohmann/json.hpp>
 
 #include "scaratwin/config/robot_config.hpp"
 #include "scaratwin/config/workcell_config.hpp"
 #include "scaratwin/core/units.hpp"
 #include "scaratwin/fleet/fleet_watch.hpp"
+#include "scaratwin/hub/process.hpp"
 #include "scaratwin/sim/companion.hpp"
 #include "scaratwin/sim/server.hpp"
 #include "scaratwin/sim/world.hpp"
@@ -45,6 +47,7 @@ struct Args {
   double status_s = 0.0;
   std::string http_bind = "127.0.0.1";
   int http_port = 8080;
+  int ready_fd = -1;  // --ready-fd: the ready line goes there
   std::string web_root;
   std::string token;
   int companion_port = -1;  // -1: off
@@ -119,6 +122,11 @@ int main(int argc, char** argv) {
   app.add_option("--status", a.status_s, "print a status line every N seconds (0: never)")
       ->capture_default_str();
   app.add_option("--http-port", a.http_port, "browser UI port (0: no UI)")->capture_default_str();
+  app.add_option("--ready-fd", a.ready_fd,
+                 "once it serves, write one JSON line on this open descriptor (port, ui_url, "
+                 "fleet_url, companion_port) and close it: for the programs that start the "
+                 "simulator")
+      ->check(CLI::Range(3, 1023));
   app.add_option("--http-bind", a.http_bind, "address the browser UI listens on")
       ->capture_default_str();
   app.add_option("--token", a.token,
@@ -336,6 +344,18 @@ int main(int argc, char** argv) {
     }
   }
   std::fflush(stdout);
+  if (a.ready_fd >= 0) {
+    nlohmann::json ready = {{"program", "scaratwin-sim"}, {"port", (*server)->port()}};
+    if (companion) ready["companion_port"] = companion->port();
+    if (web_ui) {
+      ready["ui_url"] = fmt::format("http://{}:{}/", a.http_bind, web_ui->port());
+      if (fleet_watch) {
+        ready["fleet_url"] = fmt::format("http://{}:{}/fleet.html", a.http_bind, web_ui->port());
+      }
+    }
+    if (Status st = announce_ready(a.ready_fd, ready.dump()); !st)
+      return fail(st.error().message, 1);
+  }
 
   const auto start = std::chrono::steady_clock::now();
   auto next_status = start;

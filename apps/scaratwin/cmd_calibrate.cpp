@@ -7,11 +7,10 @@
 
 #include <fmt/format.h>
 
-#include "calibrate_step.hpp"
 #include "commands.hpp"
-#include "rig.hpp"
 #include "scaratwin/config/robot_config.hpp"
-#include "scaratwin/hub/hub.hpp"
+#include "scaratwin/session/calibration.hpp"
+#include "terminal_operator.hpp"
 
 namespace scaratwin::cli {
 namespace {
@@ -55,65 +54,27 @@ int run_calibrate(const CommonOptions& common, const CalibrateArgs& a) {
   namespace fs = std::filesystem;
   const fs::path base =
       common.config_path.empty() ? default_robot_config_path() : fs::path(common.config_path);
-  const fs::path overlay = a.output.empty() ? default_overlay_path(base) : fs::path(a.output);
+  const fs::path overlay =
+      a.output.empty() ? session::default_overlay_path(base) : fs::path(a.output);
   if (!create_out_dir(a.out, "calibrate")) return kExitUsage;
   if (!fs::exists(fs::absolute(overlay).parent_path())) {
     std::fprintf(stderr, "scaratwin calibrate: --output '%s': no such folder\n",
                  overlay.string().c_str());
     return kExitUsage;
   }
-  RigOptions ro;
-  ro.config_path = common.config_path;
-  ro.serial = a.serial;
-  ro.camera = a.camera;
-  ro.robot_speed = a.robot_speed;
-  if (a.as_built_seed >= 0) ro.as_built_seed = static_cast<std::uint64_t>(a.as_built_seed);
-  auto rig = start_rig(ro, fs::absolute(a.out));
-  if (!rig) {
-    std::fprintf(stderr, "scaratwin calibrate: %s\n", rig.error().message.c_str());
-    return kExitFailure;
-  }
-  if (!rig->webcam) {
-    std::fprintf(stderr,
-                 "scaratwin calibrate: the robot has no webcam (an emulated robot "
-                 "needs --plant as-built)\n");
-    rig->stop();
-    return kExitFailure;
-  }
-  HubOptions ho;
-  ho.serial_device = rig->device;
-  ho.sim_port = rig->sim_port;
-  auto hub = Hub::connect(*model, ho, nullptr);
-  if (!hub) {
-    std::fprintf(stderr, "scaratwin calibrate: %s\n", hub.error().message.c_str());
-    rig->stop();
-    return kExitFailure;
-  }
-  std::unique_ptr<CalibrationOperator> op;
-  if (rig->side) {
-    op = std::make_unique<EmulatedOperator>(*rig->side);
-  } else {
-    op = std::make_unique<TerminalOperator>();
-  }
-  CalibrationOptions co;
-  co.marker_poses = a.poses;
-  co.touch_offs = a.touch_offs;
-  co.seed = a.seed;
-  co.progress = [](const std::string& line) {
-    fmt::print("==> {}\n", line);
-    std::fflush(stdout);
-  };
-  // with the emulated robot: each measurement beside the truth (a measuring instrument for
-  // the record and the comparison printed at the end, never given to the fit)
-  std::optional<TruthLog> truth;
-  if (rig->side) {
-    truth.emplace(*rig->side, fs::path(a.out) / "calibration-truth.csv");
-    truth->attach(co);
-  }
-  auto run = calibrate_and_write(**hub, *rig->webcam, *op, base, overlay, co);
-  if (run && truth) print_comparison(compare_parameters(*model, run->fit, truth->samples()));
-  hub->reset();
-  rig->stop();
+  session::CalibrateOptions o;
+  o.config_path = common.config_path;
+  o.serial = a.serial;
+  o.camera = a.camera;
+  o.out_dir = a.out;
+  o.overlay = overlay;
+  o.robot_speed = a.robot_speed;
+  o.as_built_seed = a.as_built_seed;
+  o.marker_poses = a.poses;
+  o.touch_offs = a.touch_offs;
+  o.seed = a.seed;
+  TerminalOperator person;
+  auto run = session::run_calibration(*model, o, &person, session::say_on_stdout());
   if (!run) {
     std::fprintf(stderr, "scaratwin calibrate: %s\n", run.error().message.c_str());
     return run.error().code == error_code(CalibrationError::kCalibratedBase) ? kExitUsage

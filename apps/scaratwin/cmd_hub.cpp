@@ -241,31 +241,6 @@ int run_hub(const CommonOptions& common, const LinkArgs& l, HubArgs a) {
 
 }  // namespace
 
-Result<std::shared_ptr<void>> start_demo_fleet(const std::string& url, const std::string& name,
-                                               const Hub& hub) {
-  auto broker = fleet::parse_broker_url(url);
-  if (!broker) return broker.error();
-  fleet::BridgeOptions bo;
-  bo.broker = *broker;
-  bo.robot = name.empty() ? hub.model().name : name;
-  bo.accept_commands = false;
-  auto b = fleet::MqttBridge::start(bo, nullptr, say);
-  if (!b) return b.error();
-  struct DemoFleet {
-    std::unique_ptr<fleet::MqttBridge> bridge;
-    std::optional<fleet::StatePublisher> publisher;
-  };
-  auto f = std::make_shared<DemoFleet>();
-  f->bridge = std::move(*b);
-  f->publisher.emplace(*f->bridge, hub, bo.robot, 10.0, [] {
-    fleet::JobStatus j;
-    j.statement = "demo";
-    j.running = true;
-    return j;
-  });
-  return std::shared_ptr<void>(f);
-}
-
 void add_hub_command(CLI::App& app, CommonOptions& common, Runner& run) {
   auto links = std::make_shared<LinkArgs>();
   auto a = std::make_shared<HubArgs>();

@@ -57,19 +57,6 @@ std::optional<JointVector> joints_from_edge(const std::vector<double>& v, const 
   return JointVector{v[0], deg_to_rad(v[1]), deg_to_rad(v[2]), deg_to_rad(v[3])};
 }
 
-std::optional<HostPort> parse_host_port(std::string_view text) {
-  const size_t colon = text.rfind(':');
-  if (colon == std::string_view::npos || colon == 0) return std::nullopt;
-  const std::string_view digits = text.substr(colon + 1);
-  unsigned port = 0;
-  const auto [end, ec] = std::from_chars(digits.data(), digits.data() + digits.size(), port);
-  if (digits.empty() || ec != std::errc{} || end != digits.data() + digits.size() || port == 0 ||
-      port > 65535) {
-    return std::nullopt;
-  }
-  return HostPort{std::string(text.substr(0, colon)), static_cast<std::uint16_t>(port)};
-}
-
 namespace {
 
 nlohmann::json joints_json(const JointVector& q) {

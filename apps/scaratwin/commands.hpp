@@ -45,6 +45,7 @@ void add_bench_command(CLI::App& app, CommonOptions& common, Runner& run);
 #include <optional>
 
 #include "scaratwin/kinematics/robot_model.hpp"
+#include "scaratwin/session/address.hpp"
 
 namespace scaratwin::cli {
 
@@ -61,12 +62,8 @@ std::optional<std::filesystem::path> create_out_dir(const std::string& dir, cons
 // Parses "d1_m,q2_deg,q3_deg,q4_deg" into SI joints; prints the error on failure.
 std::optional<JointVector> joints_from_edge(const std::vector<double>& values, const char* what);
 
-// An address option's "HOST:PORT": the host before the last ':' (not empty) and a port of
-// 1..65535 in decimal digits with nothing after them; nullopt for anything else.
-struct HostPort {
-  std::string host;
-  std::uint16_t port = 0;
-};
-std::optional<HostPort> parse_host_port(std::string_view text);
+// An address option's "HOST:PORT" (the session library's parser).
+using session::HostPort;
+using session::parse_host_port;
 
 }  // namespace scaratwin::cli

@@ -9,19 +9,12 @@
 
 #include "commands.hpp"
 #include "scaratwin/hub/hub.hpp"
+#include "scaratwin/session/links.hpp"
 
 namespace scaratwin::cli {
 
-struct LinkArgs {
-  std::vector<std::string> serial;  // DEVICE, or NAME=DEVICE per robot for several
-  std::string sim = "127.0.0.1:55016";
-  std::string sim_token;
-  std::string db = "scaratwin-out/twin.db";
-  bool no_db = false;
-  std::string workcell;  // several robots around one scene (docs/workcell.md); empty: --config
-  std::string robot;     // which of the workcell's robots (empty: the only one)
-  int report_hz = 100;   // the robot's state reports while the hub holds it (mirror --report-hz)
-};
+// --serial, --sim, --sim-token, --db, --no-db, --workcell, --robot and the report rate.
+using LinkArgs = session::LinkOptions;
 
 // Adds --serial, --sim, --sim-token, --db, --no-db, --workcell and --robot.
 void add_link_options(CLI::App& cmd, LinkArgs& l);
@@ -46,11 +39,5 @@ struct NamedHub {
 int with_hubs(const CommonOptions& common, const LinkArgs& l, const std::string& kind,
               const std::string& label,
               const std::function<Status(const std::vector<NamedHub>&)>& body);
-
-// `scaratwin demo --mqtt URL`: the demo's robot on the fleet's topics (its state, published
-// until the returned handle goes; commands are answered "takes no commands"). `name` empty:
-// the description's robot name.
-Result<std::shared_ptr<void>> start_demo_fleet(const std::string& url, const std::string& name,
-                                               const Hub& hub);
 
 }  // namespace scaratwin::cli

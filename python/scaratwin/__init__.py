@@ -8,7 +8,9 @@ The C++ libraries of scaratwin with numpy arrays in and out (docs/python.md):
 * trajectories: ``quintic``, ``plan_quintic``, ``plan_trapezoid``, ``plan_via_points``,
   ``plan_line``, ``plan_pick_place`` -> ``Trajectory`` (t, q, qd, qdd as arrays);
 * the control statements against a running simulator and robot: ``connect()`` -> ``Twin``;
-* the twin database: ``TwinDb``.
+* the twin database: ``TwinDb``;
+* the paper's procedures, as the ``scaratwin`` command runs them: ``demo()`` -> ``DemoResult``,
+  ``calibrate()`` -> ``CalibrationResult``.
 
 Units are SI: joints (d1_m, q2_rad, q3_rad, q4_rad), tool poses (x_m, y_m, z_m, yaw_rad).
 """
@@ -20,8 +22,10 @@ from pathlib import Path as _Path
 
 from . import _paths
 from ._core import (  # noqa: F401  (re-exported)
+    CalibrationResult,
     ConfigError,
     DatabaseError,
+    DemoResult,
     Error,
     LinkError,
     PlanError,
@@ -31,7 +35,9 @@ from ._core import (  # noqa: F401  (re-exported)
     Twin,
     TwinDb,
     UnreachableError,
+    calibrate,
     connect,
+    demo,
     detect_cubes,
     firmware_to_joints,
     fk,
@@ -56,9 +62,9 @@ from ._core import (  # noqa: F401  (re-exported)
 from . import _core
 
 __all__ = [
-    "ConfigError", "DatabaseError", "Error", "IkError", "LinkError", "PlanError", "Robot",
+    "CalibrationResult", "ConfigError", "DatabaseError", "DemoResult", "Error", "IkError", "LinkError", "PlanError", "Robot",
     "StatementError", "StateWatcher", "Trajectory", "Twin", "TwinDb", "UnreachableError",
-    "bin_dir", "connect", "default_robot", "default_robot_path", "detect_cubes",
+    "bin_dir", "calibrate", "connect", "default_robot", "demo", "default_robot_path", "detect_cubes",
     "firmware_to_joints", "fk", "ik", "ik_all", "jacobian", "joints_to_firmware",
     "joints_to_motors", "joints_to_steps", "load_robot", "motors_to_joints", "outside_limits",
     "paper_robot", "parse_robot", "plan_line", "plan_pick_place", "plan_quintic",

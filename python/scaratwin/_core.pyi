@@ -1,6 +1,7 @@
 """Type stubs of scaratwin._core (the C++ core; import scaratwin, not this module)."""
 
 from os import PathLike
+from pathlib import Path as _PathLib
 from typing import Any, Iterator, Literal
 
 import numpy as np
@@ -269,3 +270,58 @@ class TwinDb:
     def close(self) -> None: ...
     def __enter__(self) -> TwinDb: ...
     def __exit__(self, *exc: object) -> None: ...
+
+class DemoResult:
+    """What ``demo()`` measured (``results`` names results.json, which has every figure)."""
+
+    ok: bool
+    plant: str
+    run: int
+    duration_s: float
+    cubes_in_trays: int
+    database: _PathLib
+    results: _PathLib | None
+    report: _PathLib | None
+    csv_dir: _PathLib
+    failure: str | None
+    failure_code: int | None
+    lost_frames: int | None
+    latency_mean_ms: float | None
+
+def demo(
+    out: _Path = "scaratwin-out",
+    robot: Robot | None = None,
+    cubes: int = 3,
+    seed: int = 7,
+    calibrate: bool = True,
+    as_built_seed: int | None = None,
+    layout_seed: int | None = None,
+    http_port: int = 0,
+    robot_speed: float = 1.0,
+    mirror_s: float = 6.0,
+    on_line: Any = None,
+) -> DemoResult:
+    """The paper's procedure as ``scaratwin demo`` runs it (simulator and emulated robot)."""
+
+class CalibrationResult:
+    """What ``calibrate()`` identified; ``overlay`` is the description it wrote."""
+
+    overlay: _PathLib
+    pixel_rms: float
+    robot_s: float
+    pictures: int
+    parameters: dict[str, tuple[float, float]]
+    truth: dict[str, float]
+
+def calibrate(
+    out: _Path = "scaratwin-calibration",
+    robot: Robot | None = None,
+    overlay: _Path | None = None,
+    poses: int = 24,
+    touch_offs: int = 4,
+    seed: int = 1,
+    as_built_seed: int | None = None,
+    robot_speed: float = 1.0,
+    on_line: Any = None,
+) -> CalibrationResult:
+    """The calibration routine as ``scaratwin calibrate`` runs it on the emulated robot."""

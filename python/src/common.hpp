@@ -90,5 +90,6 @@ void bind_robot(py::module_& m);
 void bind_trajectory(py::module_& m);
 void bind_twin(py::module_& m);
 void bind_db(py::module_& m);
+void bind_session(py::module_& m);
 
 }  // namespace scaratwin::python

@@ -170,4 +170,5 @@ PYBIND11_MODULE(_core, m) {
   sp::bind_trajectory(m);
   sp::bind_twin(m);
   sp::bind_db(m);
+  sp::bind_session(m);
 }

@@ -1,6 +1,7 @@
 #include "scaratwin/hub/process.hpp"
 
 #include <fcntl.h>
+#include <poll.h>
 #include <signal.h>
 #include <spawn.h>
 #include <sys/wait.h>
@@ -10,6 +11,8 @@
 #include <cstring>
 
 #include <fmt/format.h>
+
+#include <nlohmann/json.hpp>
 
 extern char** environ;
 
@@ -21,23 +24,73 @@ std::filesystem::path sibling_executable(const std::string& name) {
   return ec ? std::filesystem::path(name) : self.parent_path() / name;
 }
 
+Status announce_ready(int fd, const std::string& json) {
+  const std::string line = json + "\n";
+  std::size_t done = 0;
+  while (done < line.size()) {
+    const ssize_t n = ::write(fd, line.data() + done, line.size() - done);
+    if (n < 0 && errno == EINTR) continue;
+    if (n <= 0) {
+      const int err = errno;
+      ::close(fd);
+      return Error{
+          HubError::kStartFailed,
+          fmt::format("--ready-fd {}: cannot write the ready line: {}", fd, std::strerror(err))};
+    }
+    done += static_cast<std::size_t>(n);
+  }
+  ::close(fd);
+  return Ok{};
+}
+
+namespace {
+
+// A pipe whose ends are above the standard descriptors and the ready descriptor (so that a
+// dup2 onto 3 always copies, and clears FD_CLOEXEC on the copy).
+bool high_pipe(int fds[2]) {
+  int raw[2];
+  if (pipe2(raw, O_CLOEXEC) != 0) return false;
+  for (int i = 0; i < 2; ++i) {
+    fds[i] = fcntl(raw[i], F_DUPFD_CLOEXEC, 10);
+    close(raw[i]);
+  }
+  if (fds[0] < 0 || fds[1] < 0) {
+    if (fds[0] >= 0) close(fds[0]);
+    if (fds[1] >= 0) close(fds[1]);
+    return false;
+  }
+  return true;
+}
+
+}  // namespace
+
 Result<std::unique_ptr<ChildProcess>> ChildProcess::start(const std::filesystem::path& exe,
                                                           const std::vector<std::string>& args,
-                                                          const std::filesystem::path& log) {
+                                                          const std::filesystem::path& log,
+                                                          bool ready_fd) {
   if (access(exe.c_str(), X_OK) != 0) {
     return Error{HubError::kStartFailed, fmt::format("cannot run '{}': {} (is the build complete?)",
                                                      exe.string(), std::strerror(errno))};
   }
   int fds[2];
-  if (pipe2(fds, O_CLOEXEC) != 0)
+  if (!high_pipe(fds))
     return Error{HubError::kStartFailed, fmt::format("pipe: {}", std::strerror(errno))};
+  int ready[2] = {-1, -1};
+  if (ready_fd && !high_pipe(ready)) {
+    const int err = errno;
+    close(fds[0]);
+    close(fds[1]);
+    return Error{HubError::kStartFailed, fmt::format("pipe: {}", std::strerror(err))};
+  }
   posix_spawn_file_actions_t fa;
   posix_spawn_file_actions_init(&fa);
   posix_spawn_file_actions_adddup2(&fa, fds[1], STDOUT_FILENO);
   posix_spawn_file_actions_adddup2(&fa, fds[1], STDERR_FILENO);
   posix_spawn_file_actions_addopen(&fa, STDIN_FILENO, "/dev/null", O_RDONLY, 0);
+  if (ready_fd) posix_spawn_file_actions_adddup2(&fa, ready[1], kReadyFd);
   std::vector<std::string> all{exe.string()};
   all.insert(all.end(), args.begin(), args.end());
+  if (ready_fd) all.insert(all.end(), {"--ready-fd", std::to_string(kReadyFd)});
   std::vector<char*> argv;
   for (std::string& a : all) argv.push_back(a.data());
   argv.push_back(nullptr);
@@ -45,14 +98,17 @@ Result<std::unique_ptr<ChildProcess>> ChildProcess::start(const std::filesystem:
   const int rc = posix_spawn(&pid, exe.c_str(), &fa, nullptr, argv.data(), environ);
   posix_spawn_file_actions_destroy(&fa);
   close(fds[1]);
+  if (ready_fd) close(ready[1]);
   if (rc != 0) {
     close(fds[0]);
+    if (ready_fd) close(ready[0]);
     return Error{HubError::kStartFailed,
                  fmt::format("cannot start '{}': {}", exe.string(), std::strerror(rc))};
   }
   std::unique_ptr<ChildProcess> p(new ChildProcess());
   p->pid_ = pid;
   p->out_fd_ = fds[0];
+  p->ready_fd_ = ready[0];
   p->name_ = exe.filename().string();
   if (!log.empty()) {
     p->log_fd_ = ::open(log.c_str(), O_WRONLY | O_CREAT | O_APPEND | O_CLOEXEC, 0644);
@@ -106,6 +162,46 @@ Result<std::string> ChildProcess::wait_for_line(const std::string& needle,
                            output_tail())};
 }
 
+Result<std::string> ChildProcess::wait_ready(std::chrono::milliseconds timeout) {
+  if (!ready_.empty()) return ready_;
+  if (ready_fd_ < 0) {
+    return Error{HubError::kNotReady,
+                 fmt::format("{} was started without a ready descriptor", name_)};
+  }
+  const auto deadline = std::chrono::steady_clock::now() + timeout;
+  std::string line;
+  for (;;) {
+    const auto left = std::chrono::duration_cast<std::chrono::milliseconds>(
+        deadline - std::chrono::steady_clock::now());
+    pollfd p{ready_fd_, POLLIN, 0};
+    const int r = left.count() > 0 ? ::poll(&p, 1, static_cast<int>(left.count())) : 0;
+    if (r < 0 && errno == EINTR) continue;
+    if (r == 0) {
+      return Error{HubError::kNotReady,
+                   fmt::format("{} was not ready within {} ms; its last output:\n{}", name_,
+                               timeout.count(), output_tail())};
+    }
+    char buf[512];
+    const ssize_t n = ::read(ready_fd_, buf, sizeof buf);
+    if (n < 0 && errno == EINTR) continue;
+    if (n <= 0) {
+      // closed without a line: it exited (or failed) before it was ready; its last words
+      // follow on its output
+      (void)wait_exit(std::chrono::milliseconds(2000));
+      return Error{
+          HubError::kExited,
+          fmt::format("{} exited before it was ready; its last output:\n{}", name_, output_tail())};
+    }
+    line.append(buf, static_cast<std::size_t>(n));
+    if (const auto nl = line.find('\n'); nl != std::string::npos) {
+      ready_ = line.substr(0, nl);
+      ::close(ready_fd_);
+      ready_fd_ = -1;
+      return ready_;
+    }
+  }
+}
+
 bool ChildProcess::running() {
   if (reaped_) return false;
   int st = 0;
@@ -143,7 +239,8 @@ int ChildProcess::stop(std::chrono::milliseconds grace) {
   if (thread_.joinable()) thread_.join();
   if (out_fd_ >= 0) close(out_fd_);
   if (log_fd_ >= 0) close(log_fd_);
-  out_fd_ = log_fd_ = -1;
+  if (ready_fd_ >= 0) close(ready_fd_);
+  out_fd_ = log_fd_ = ready_fd_ = -1;
   return status_;
 }
 
@@ -157,5 +254,98 @@ std::string ChildProcess::output_tail(size_t n) {
 }
 
 ChildProcess::~ChildProcess() { stop(); }
+
+namespace {
+
+// The JSON object of a ready line written by `program`.
+Result<nlohmann::json> ready_object(const std::string& line, const char* program) {
+  nlohmann::json j = nlohmann::json::parse(line, nullptr, false);
+  if (j.is_discarded() || !j.is_object()) {
+    return Error{HubError::kNotReady,
+                 fmt::format("{}: its ready line is not a JSON object: '{}'", program, line)};
+  }
+  if (j.value("program", std::string()) != program) {
+    return Error{HubError::kNotReady,
+                 fmt::format("{}: the ready line is another program's: '{}'", program, line)};
+  }
+  return j;
+}
+
+Result<std::uint16_t> port_field(const nlohmann::json& j, const char* key, bool required,
+                                 const char* program) {
+  if (!j.contains(key)) {
+    if (!required) return std::uint16_t{0};
+  } else if (j[key].is_number_unsigned() && j[key].get<unsigned>() <= 65535) {
+    return static_cast<std::uint16_t>(j[key].get<unsigned>());
+  }
+  return Error{
+      HubError::kNotReady,
+      fmt::format("{}: its ready line has no port '{}' (0..65535): {}", program, key, j.dump())};
+}
+
+}  // namespace
+
+Result<SimulatorReady> parse_simulator_ready(const std::string& line) {
+  constexpr const char* kProgram = "scaratwin-sim";
+  auto j = ready_object(line, kProgram);
+  if (!j) return j.error();
+  SimulatorReady r;
+  auto port = port_field(*j, "port", true, kProgram);
+  if (!port) return port.error();
+  r.port = *port;
+  auto companion = port_field(*j, "companion_port", false, kProgram);
+  if (!companion) return companion.error();
+  r.companion_port = *companion;
+  r.ui_url = j->value("ui_url", std::string());
+  r.fleet_url = j->value("fleet_url", std::string());
+  return r;
+}
+
+Result<StartedSimulator> start_simulator(const std::filesystem::path& exe,
+                                         const std::vector<std::string>& args,
+                                         const std::filesystem::path& log,
+                                         std::chrono::milliseconds timeout) {
+  auto p = ChildProcess::start(exe, args, log, true);
+  if (!p) return p.error();
+  auto line = (*p)->wait_ready(timeout);
+  if (!line) return line.error();
+  auto ready = parse_simulator_ready(*line);
+  if (!ready) return ready.error();
+  return StartedSimulator{std::move(*p), std::move(*ready)};
+}
+
+Result<StartedEmulator> start_emulator(const std::filesystem::path& exe,
+                                       const std::vector<std::string>& args,
+                                       const std::filesystem::path& log,
+                                       std::chrono::milliseconds timeout) {
+  auto p = ChildProcess::start(exe, args, log, true);
+  if (!p) return p.error();
+  auto line = (*p)->wait_ready(timeout);
+  if (!line) return line.error();
+  auto ready = parse_emulator_ready(*line);
+  if (!ready) return ready.error();
+  return StartedEmulator{std::move(*p), std::move(*ready)};
+}
+
+Result<EmulatorReady> parse_emulator_ready(const std::string& line) {
+  constexpr const char* kProgram = "scaratwin-robot";
+  auto j = ready_object(line, kProgram);
+  if (!j) return j.error();
+  EmulatorReady r;
+  if (!(*j)["pty"].is_string() || (*j)["pty"].get<std::string>().empty()) {
+    return Error{HubError::kNotReady,
+                 fmt::format("{}: its ready line has no pty: {}", kProgram, j->dump())};
+  }
+  r.pty = (*j)["pty"].get<std::string>();
+  auto side = port_field(*j, "side_port", true, kProgram);
+  if (!side) return side.error();
+  r.side_port = *side;
+  auto camera = port_field(*j, "camera_port", false, kProgram);
+  if (!camera) return camera.error();
+  r.camera_port = *camera;
+  r.plant = j->value("plant", std::string());
+  r.auto_reset = j->value("auto_reset", false);
+  return r;
+}
 
 }  // namespace scaratwin

@@ -79,23 +79,16 @@ class EmulatedRobot final : public RobotInterface {
     if (process_) return hub_error("the emulated robot is configured already");
     const auto exe =
         options_.executable.empty() ? sibling_executable("scaratwin-robot") : options_.executable;
-    auto child = ChildProcess::start(exe, options_.args, options_.log);
-    if (!child) return child.error();
-    process_ = std::move(*child);
-    // the emulator loads the firmware and opens its pty before it prints the line
-    auto line =
-        process_->wait_for_line("pty: ", std::max(timeout, std::chrono::milliseconds(30000)));
-    if (!line) {
-      process_->stop();
-      return hub_error(fmt::format("emulated robot ({}): {}", exe.string(), line.error().message));
+    // the emulator loads the firmware and opens its pty before it says it is ready
+    auto started = start_emulator(exe, options_.args, options_.log,
+                                  std::max(timeout, std::chrono::milliseconds(30000)));
+    if (!started) {
+      return hub_error(
+          fmt::format("emulated robot ({}): {}", exe.string(), started.error().message));
     }
-    pty_ = line->substr(line->find("pty: ") + 5);
-    // printed right after the pty (an emulator without one says nothing: port 0)
-    if (auto side = process_->wait_for_line("side channel: ", std::chrono::milliseconds(5000));
-        side) {
-      const int port = std::atoi(side->substr(side->rfind(':') + 1).c_str());
-      if (port > 0 && port < 65536) side_port_ = static_cast<std::uint16_t>(port);
-    }
+    process_ = std::move(started->process);
+    pty_ = started->ready.pty;
+    side_port_ = started->ready.side_port;
     serial_.set_device(pty_);
     return serial_.configure(io, timeout);
   }

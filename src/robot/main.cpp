@@ -17,11 +17,13 @@
 #include <filesystem>
 
 #include <CLI/CLI.hpp>
+#include <nlohmann/json.hpp>
 
 #include "emulator.hpp"
 #include "scaratwin/config/data_paths.hpp"
 #include "scaratwin/config/robot_config.hpp"
 #include "scaratwin/core/units.hpp"
+#include "scaratwin/hub/process.hpp"
 #include "scaratwin/kinematics/motor.hpp"
 
 // libsimavr keeps a few allocations (IRQ names, notify hooks) until exit and has no call to
@@ -120,6 +122,12 @@ int main(int argc, char** argv) {
                  "any free port, -1 = no camera)")
       ->capture_default_str()
       ->check(CLI::Range(-1, 65535));
+  int ready_fd = -1;
+  app.add_option("--ready-fd", ready_fd,
+                 "once the firmware runs, write one JSON line on this open descriptor (pty, "
+                 "side_port, camera_port, plant, auto_reset) and close it: for the programs "
+                 "that start the emulator")
+      ->check(CLI::Range(3, 1023));
   bool exit_with_parent = false;
   app.add_flag("--exit-with-parent", exit_with_parent,
                "terminate when the process that started the emulator dies (tests)");
@@ -221,6 +229,18 @@ int main(int argc, char** argv) {
     std::printf("camera: 127.0.0.1:%u\n", static_cast<unsigned>(e.camera_port()));
   }
   std::fflush(stdout);
+  if (ready_fd >= 0) {
+    const nlohmann::json ready = {{"program", "scaratwin-robot"},
+                                  {"pty", e.pty().slave_path()},
+                                  {"side_port", e.side().port()},
+                                  {"camera_port", e.camera_port()},
+                                  {"plant", opt.plant ? "as-built" : "ideal"},
+                                  {"auto_reset", opt.auto_reset}};
+    if (Status s = announce_ready(ready_fd, ready.dump()); !s) {
+      std::fprintf(stderr, "scaratwin-robot: %s\n", s.error().message.c_str());
+      return 1;
+    }
+  }
   std::signal(SIGINT, on_signal);
   std::signal(SIGTERM, on_signal);
   std::signal(SIGPIPE, SIG_IGN);

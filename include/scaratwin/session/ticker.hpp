@@ -4,7 +4,6 @@
 
 #include <atomic>
 #include <chrono>
-#include <cstdio>
 #include <string>
 #include <thread>
 
@@ -13,13 +12,15 @@
 #include "scaratwin/core/units.hpp"
 #include "scaratwin/hub/hub.hpp"
 #include "scaratwin/kinematics/kinematics.hpp"
+#include "scaratwin/session/say.hpp"
 
-namespace scaratwin::cli {
+namespace scaratwin::session {
 
-// Prints a status line every second while a phase runs.
+// Says a status line every second while a phase runs.
 class Ticker {
  public:
-  Ticker(Hub& hub, std::string phase) : hub_(hub), phase_(std::move(phase)) {
+  Ticker(Hub& hub, std::string phase, Say say)
+      : hub_(hub), phase_(std::move(phase)), say_(std::move(say)) {
     thread_ = std::thread([this] {
       const auto start = std::chrono::steady_clock::now();
       while (!stop_) {
@@ -29,12 +30,11 @@ class Ticker {
         const MirrorCounters c = hub_.mirror_counters();
         const PhysicalState p = hub_.physical();
         const ToolPose tool = forward(hub_.model(), p.q);
-        fmt::print(
+        say_(fmt::format(
             "    {:<10} {:5.1f} s  tool ({:6.1f}, {:6.1f}, {:6.1f}) mm  mirror {} frames, "
-            "{} lost, latency {:.2f} ms\n",
+            "{} lost, latency {:.2f} ms",
             phase_, std::chrono::duration<double>(last_ - start).count(), m_to_mm(tool.x_m),
-            m_to_mm(tool.y_m), m_to_mm(tool.z_m), c.applied, c.lost, c.last_latency_ms);
-        std::fflush(stdout);
+            m_to_mm(tool.y_m), m_to_mm(tool.z_m), c.applied, c.lost, c.last_latency_ms));
       }
     });
   }
@@ -46,9 +46,10 @@ class Ticker {
  private:
   Hub& hub_;
   std::string phase_;
+  Say say_;
   std::atomic<bool> stop_{false};
   std::chrono::steady_clock::time_point last_ = std::chrono::steady_clock::now();
   std::thread thread_;
 };
 
-}  // namespace scaratwin::cli
+}  // namespace scaratwin::session

@@ -1,4 +1,4 @@
-#include "calibrate_step.hpp"
+#include "scaratwin/session/calibration.hpp"
 
 #include <unistd.h>
 
@@ -7,7 +7,6 @@
 #include <cmath>
 #include <cstdio>
 #include <fstream>
-#include <iostream>
 #include <numbers>
 #include <thread>
 
@@ -15,16 +14,19 @@
 #include <Eigen/Dense>
 #include <Eigen/Geometry>
 
+#include "scaratwin/config/robot_config.hpp"
 #include "scaratwin/core/units.hpp"
 #include "scaratwin/hub/report.hpp"
 #include "scaratwin/kinematics/kinematics.hpp"
 #include "scaratwin/kinematics/motor.hpp"
 #include "scaratwin/plant/plant.hpp"
 #include "scaratwin/plant/plant_camera.hpp"
+#include "scaratwin/session/rig.hpp"
 #include "scaratwin/trajectory/trajectory.hpp"
 #include "scaratwin/vision/webcam.hpp"
+#include "stop_watch.hpp"
 
-namespace scaratwin::cli {
+namespace scaratwin::session {
 namespace {
 
 using namespace std::chrono_literals;
@@ -75,46 +77,6 @@ Status EmulatedOperator::touch_off(Hub& hub, const std::string& name,
                            name, best * 1e3)};
 }
 
-Status TerminalOperator::pattern(bool on) {
-  std::fputs(on ? "    lay the printed pattern on the table (registered to the robot's base) "
-                  "and press Enter: "
-                : "    take the pattern away and press Enter: ",
-             stdout);
-  std::fflush(stdout);
-  std::string line;
-  if (!std::getline(std::cin, line))
-    return Error{CalibrationError::kNoOperator, "calibration: no operator at the terminal"};
-  return Ok{};
-}
-
-Status TerminalOperator::touch_off(Hub& hub, const std::string& name,
-                                   const std::array<double, 3>& mark) {
-  fmt::print(
-      "    touch-off {} at ({:.1f}, {:.1f}, {:.1f}) mm: jog with x+ x- y+ y- z+ z- and a step "
-      "in steps (e.g. `y+ 3`), Enter alone when the tool is on the mark\n",
-      name, mark[0] * 1e3, mark[1] * 1e3, mark[2] * 1e3);
-  for (;;) {
-    fmt::print("    > ");
-    std::fflush(stdout);
-    std::string line;
-    if (!std::getline(std::cin, line))
-      return Error{CalibrationError::kNoOperator, "calibration: no operator at the terminal"};
-    if (line.empty()) return Ok{};
-    char axis = 0, sign = 0;
-    int steps = 1;
-    if (std::sscanf(line.c_str(), " %c%c %d", &axis, &sign, &steps) < 2 ||
-        (sign != '+' && sign != '-') || steps < 1 || steps > 200) {
-      fmt::print("    expected e.g. `z- 5`\n");
-      continue;
-    }
-    const protocol::Axis a = axis == 'z'   ? protocol::Axis::kZ
-                             : axis == 'y' ? protocol::Axis::kJ2
-                                           : protocol::Axis::kJ3;
-    if (Status s = hub.jog(a, sign == '+' ? steps : -steps); !s) return s;
-    (void)hub.wait_idle(10.0);
-  }
-}
-
 std::filesystem::path default_overlay_path(const std::filesystem::path& base) {
   std::filesystem::path p = base;
   p.replace_extension();
@@ -124,22 +86,22 @@ std::filesystem::path default_overlay_path(const std::filesystem::path& base) {
 Result<CalibrationRun> calibrate_and_write(Hub& hub, NetCamera& camera, CalibrationOperator& op,
                                            const std::filesystem::path& base_config,
                                            const std::filesystem::path& overlay,
-                                           const CalibrationOptions& options) {
+                                           const CalibrationOptions& options, const Say& say) {
   auto run = calibrate(hub, camera, op, options);
   if (!run) return run.error();
   const calib::Fit& f = run->fit;
-  fmt::print("    {:<22} {:>12} {:>10}\n", "parameter", "identified", "std error");
+  say(fmt::format("    {:<22} {:>12} {:>10}", "parameter", "identified", "std error"));
   for (int i = 0; i < calib::kParamCount; ++i) {
     const auto& info = calib::param_info(i);
-    fmt::print("    {:<22} {:>12.4f} {:>10.4f}\n", info.key, f.value[i] / info.to_si,
-               f.std_error[i] / info.to_si);
+    say(fmt::format("    {:<22} {:>12.4f} {:>10.4f}", info.key, f.value[i] / info.to_si,
+                    f.std_error[i] / info.to_si));
   }
-  fmt::print(
+  say(fmt::format(
       "    from {} pattern corners, {} marker views, {} touch-offs: residual {:.2f} px (markers "
       "{:.2f} px), touch-offs {:.3f} mm; fit {:.0f} ms; routine {:.0f} s of robot time, {} "
-      "pictures\n",
+      "pictures",
       f.pattern_points, f.marker_views, f.touch_offs, f.pixel_rms, f.marker_rms_px,
-      f.touch_rms_m * 1e3, f.fit_seconds * 1e3, run->robot_s, run->pictures);
+      f.touch_rms_m * 1e3, f.fit_seconds * 1e3, run->robot_s, run->pictures));
   // the base as the overlay names it: relative to the overlay's folder
   std::error_code ec;
   const std::filesystem::path dir = std::filesystem::absolute(overlay).parent_path();
@@ -158,7 +120,7 @@ Result<CalibrationRun> calibrate_and_write(Hub& hub, NetCamera& camera, Calibrat
   if (ec)
     return Error{CalibrationError::kWriteFailed,
                  "calibration: cannot write " + overlay.string() + ": " + ec.message()};
-  fmt::print("    calibrated description: {} (load it with --config)\n", overlay.string());
+  say(fmt::format("    calibrated description: {} (load it with --config)", overlay.string()));
   return run;
 }
 
@@ -240,40 +202,36 @@ std::vector<CalibrationParameter> compare_parameters(const RobotModel& descripti
   return out;
 }
 
-void print_comparison(const std::vector<CalibrationParameter>& params) {
-  fmt::print(
-      "    against the robot as built (the emulator's truth; the camera as the change from "
-      "the description's):\n");
-  fmt::print("    {:<22} {:>11} {:>9} {:>11} {:>7} {:>11}\n", "parameter", "identified",
-             "std error", "true", "off/se", "as drawn");
+void say_comparison(const std::vector<CalibrationParameter>& params, const Say& say) {
+  say("    against the robot as built (the emulator's truth; the camera as the change from the "
+      "description's):");
+  say(fmt::format("    {:<22} {:>11} {:>9} {:>11} {:>7} {:>11}", "parameter", "identified",
+                  "std error", "true", "off/se", "as drawn"));
   for (const CalibrationParameter& p : params) {
     const double z = std::abs(p.identified - p.truth) / p.std_error;
-    fmt::print("    {:<22} {:>11.4f} {:>9.4f} {:>11.4f} {:>7.1f} {:>11.4f}\n", p.key, p.identified,
-               p.std_error, p.truth, z, p.drawn);
+    say(fmt::format("    {:<22} {:>11.4f} {:>9.4f} {:>11.4f} {:>7.1f} {:>11.4f}", p.key,
+                    p.identified, p.std_error, p.truth, z, p.drawn));
   }
 }
 
 Result<CalibrationFigures> calibration_phase(Hub& hub, EmulatorSide& side, NetCamera& camera,
                                              const std::filesystem::path& base_config,
                                              const std::filesystem::path& overlay,
-                                             std::uint64_t test_seed) {
+                                             std::uint64_t test_seed, const Say& say) {
   const RobotModel base = hub.model();
   const std::vector<ToolPose> poses = test_poses(base, 12, test_seed);
   EmulatedOperator op(side);
   CalibrationOptions co;
-  co.progress = [](const std::string& line) {
-    fmt::print("    {}\n", line);
-    std::fflush(stdout);
-  };
+  co.progress = [&say](const std::string& line) { say("    " + line); };
   TruthLog truth_log(side, overlay.parent_path() / "calibration-truth.csv");
   truth_log.attach(co);
-  auto cal = calibrate_and_write(hub, camera, op, base_config, overlay, co);
+  auto cal = calibrate_and_write(hub, camera, op, base_config, overlay, co, say);
   if (!cal) return cal.error();
   hub.set_model(cal->calibrated);
-  fmt::print(
-      "    {} test poses: the virtual tool as the description put it before and as the "
-      "calibrated one puts it, against the true tool\n",
-      poses.size());
+  say(
+      fmt::format("    {} test poses: the virtual tool as the description put it before and as the "
+                  "calibrated one puts it, against the true tool",
+                  poses.size()));
   auto errors = measure_test_poses(hub, side, poses, base);
   if (!errors) return errors.error();
   CalibrationFigures cf;
@@ -286,12 +244,12 @@ Result<CalibrationFigures> calibration_phase(Hub& hub, EmulatorSide& side, NetCa
   cf.pixel_rms = cal->fit.pixel_rms;
   cf.overlay = overlay.string();
   cf.parameters = compare_parameters(base, cal->fit, truth_log.samples());
-  print_comparison(cf.parameters);
-  fmt::print(
+  say_comparison(cf.parameters, say);
+  say(fmt::format(
       "    virtual -> true tool at {} test poses: before mean {:.2f} p95 {:.2f} max {:.2f} mm; "
-      "after mean {:.2f} p95 {:.2f} max {:.2f} mm\n",
+      "after mean {:.2f} p95 {:.2f} max {:.2f} mm",
       poses.size(), m_to_mm(cf.before.mean_m), m_to_mm(cf.before.p95_m), m_to_mm(cf.before.max_m),
-      m_to_mm(cf.after.mean_m), m_to_mm(cf.after.p95_m), m_to_mm(cf.after.max_m));
+      m_to_mm(cf.after.mean_m), m_to_mm(cf.after.p95_m), m_to_mm(cf.after.max_m)));
   hub.record_metric(metric::kCalibBeforeMeanMm, m_to_mm(cf.before.mean_m), "mm");
   hub.record_metric(metric::kCalibBeforeMaxMm, m_to_mm(cf.before.max_m), "mm");
   hub.record_metric(metric::kCalibAfterMeanMm, m_to_mm(cf.after.mean_m), "mm");
@@ -336,6 +294,67 @@ void TruthLog::attach(CalibrationOptions& o) {
         v && v->flag_px ? (*v->flag_px)[1] : -1.0, tr->tool[0], tr->tool[1], tr->tool[2]);
     std::fflush(csv_);
   };
+}
+
+Result<CalibrateResult> run_calibration(const RobotModel& model, const CalibrateOptions& o,
+                                        CalibrationOperator* person, const Say& say) {
+  namespace fs = std::filesystem;
+  const fs::path base =
+      o.config_path.empty() ? default_robot_config_path() : fs::path(o.config_path);
+  CalibrateResult result;
+  result.overlay = o.overlay.empty() ? default_overlay_path(base) : o.overlay;
+  RigOptions ro;
+  ro.config_path = o.config_path;
+  ro.serial = o.serial;
+  ro.camera = o.camera;
+  ro.robot_speed = o.robot_speed;
+  ro.bin_dir = o.bin_dir;
+  if (o.as_built_seed >= 0) ro.as_built_seed = static_cast<std::uint64_t>(o.as_built_seed);
+  auto rig = start_rig(ro, fs::absolute(o.out_dir), say);
+  if (!rig) return rig.error();
+  struct StopRig {
+    Rig& rig;
+    ~StopRig() { rig.stop(); }
+  } stop_rig{*rig};
+  if (!rig->webcam) {
+    return Error{AppError::kRigStart,
+                 "the robot has no webcam (an emulated robot needs --plant as-built)"};
+  }
+  if (!rig->side && person == nullptr) {
+    return Error{CalibrationError::kNoOperator, "calibration: a real robot needs an operator"};
+  }
+  HubOptions ho;
+  ho.serial_device = rig->device;
+  ho.sim_port = rig->sim_port;
+  auto hub = Hub::connect(model, ho, nullptr);
+  if (!hub) return hub.error();
+  if (o.stop != nullptr && o.stop->load()) {
+    return Error{HubError::kInterrupted, "calibration: interrupted before it began"};
+  }
+  const StopWatch watch(o.stop, **hub);
+  std::optional<EmulatedOperator> emulated;
+  if (rig->side) emulated.emplace(*rig->side);
+  CalibrationOperator& op = emulated ? static_cast<CalibrationOperator&>(*emulated) : *person;
+  CalibrationOptions co;
+  co.marker_poses = o.marker_poses;
+  co.touch_offs = o.touch_offs;
+  co.seed = o.seed;
+  co.progress = [&say](const std::string& line) { say("==> " + line); };
+  // with the emulated robot: each measurement beside the truth (a measuring instrument for
+  // the record and the comparison said at the end, never given to the fit)
+  std::optional<TruthLog> truth;
+  if (rig->side) {
+    truth.emplace(*rig->side, o.out_dir / "calibration-truth.csv");
+    truth->attach(co);
+  }
+  auto run = calibrate_and_write(**hub, *rig->webcam, op, base, result.overlay, co, say);
+  if (!run) return run.error();
+  if (truth) {
+    result.compared = compare_parameters(model, run->fit, truth->samples());
+    say_comparison(result.compared, say);
+  }
+  result.run = std::move(*run);
+  return result;
 }
 
 namespace {
@@ -446,4 +465,4 @@ std::array<double, calib::kParamCount> identified_parameters(const RobotModel& d
   return t;
 }
 
-}  // namespace scaratwin::cli
+}  // namespace scaratwin::session

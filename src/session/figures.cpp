@@ -1,4 +1,4 @@
-#include "demo_figures.hpp"
+#include "scaratwin/session/figures.hpp"
 
 #include <algorithm>
 #include <cmath>
@@ -9,7 +9,7 @@
 
 #include "scaratwin/core/units.hpp"
 
-namespace scaratwin::cli {
+namespace scaratwin::session {
 
 // The sorting succeeded: on the physical table when it can be seen (the emulated robot's
 // truth), else in the virtual scene mirroring the robot.
@@ -97,4 +97,4 @@ Status write_results(const std::filesystem::path& path, const std::string& plant
   return Ok{};
 }
 
-}  // namespace scaratwin::cli
+}  // namespace scaratwin::session

@@ -1,22 +1,25 @@
-// Calibration as the command line runs it (`scaratwin calibrate` and the demo's calibration
-// step): the operator (scripted with the emulated robot: its hands place the pattern and its
-// eyes, the truth, guide the touch-offs; a person at a real robot), the overlay file, the
-// table of what was identified, and the test poses that measure the gap before and after.
+// Calibration as a session runs it (`scaratwin calibrate`, the demo's calibration step, Python's
+// scaratwin.calibrate): the emulated robot's operator (its hands place the pattern and its
+// eyes, the truth, guide the touch-offs; a person at a real robot is a front end's
+// CalibrationOperator), the overlay file, the table of what was identified, and the test poses
+// that measure the gap before and after.
 #pragma once
 
 #include <array>
+#include <atomic>
 #include <cstdio>
 #include <filesystem>
 #include <optional>
 #include <string>
 #include <vector>
 
-#include "demo_figures.hpp"
-#include "emulator_side.hpp"
 #include "scaratwin/hub/analysis.hpp"
 #include "scaratwin/hub/calibrate.hpp"
+#include "scaratwin/session/emulator_side.hpp"
+#include "scaratwin/session/figures.hpp"
+#include "scaratwin/session/say.hpp"
 
-namespace scaratwin::cli {
+namespace scaratwin::session {
 
 // The operator of the emulated robot. Its eyes (the truth) see where the tool is, as a person
 // at the robot sees it; the twin only learns that the tool is on the mark.
@@ -30,19 +33,12 @@ class EmulatedOperator : public CalibrationOperator {
   EmulatorSide& side_;
 };
 
-// A person at a real robot, at this terminal.
-class TerminalOperator : public CalibrationOperator {
- public:
-  Status pattern(bool on) override;
-  Status touch_off(Hub& hub, const std::string& name, const std::array<double, 3>& mark_B) override;
-};
-
-// Runs the routine, prints the identified parameters and writes the overlay to `overlay`
+// Runs the routine, says the identified parameters and writes the overlay to `overlay`
 // (its `base` relative to the overlay's folder). Nothing is written when the fit is refused.
 Result<CalibrationRun> calibrate_and_write(Hub& hub, NetCamera& camera, CalibrationOperator& op,
                                            const std::filesystem::path& base_config,
                                            const std::filesystem::path& overlay,
-                                           const CalibrationOptions& options);
+                                           const CalibrationOptions& options, const Say& say);
 
 // Where the overlay goes by default: next to the base description, <stem>.calibrated.toml.
 std::filesystem::path default_overlay_path(const std::filesystem::path& base_config);
@@ -107,11 +103,11 @@ std::array<double, calib::kParamCount> drawn_parameters(const RobotModel& descri
 std::array<double, calib::kParamCount> identified_parameters(const RobotModel& description,
                                                              const calib::Fit& fit);
 
-// Each parameter identified beside the truth and the draw (key units), and the table printed.
+// Each parameter identified beside the truth and the draw (key units), and the table said.
 std::vector<CalibrationParameter> compare_parameters(const RobotModel& description,
                                                      const calib::Fit& fit,
                                                      const std::vector<MeasuredJoints>& samples);
-void print_comparison(const std::vector<CalibrationParameter>& params);
+void say_comparison(const std::vector<CalibrationParameter>& params, const Say& say);
 
 // The demo's calibration step with the emulated robot: the test poses as the description is,
 // the routine and its overlay (written to `overlay`), the hub switched to the calibrated
@@ -119,6 +115,39 @@ void print_comparison(const std::vector<CalibrationParameter>& params);
 Result<CalibrationFigures> calibration_phase(Hub& hub, EmulatorSide& side, NetCamera& camera,
                                              const std::filesystem::path& base_config,
                                              const std::filesystem::path& overlay,
-                                             std::uint64_t test_seed);
+                                             std::uint64_t test_seed, const Say& say);
 
-}  // namespace scaratwin::cli
+// A whole calibration session (`scaratwin calibrate`, Python's scaratwin.calibrate): the
+// processes (the emulated robot, or a real board and its webcam), a hub without a database,
+// the routine with its operator, the overlay written.
+struct CalibrateOptions {
+  std::string config_path;        // the base description (empty: the default one)
+  std::string serial;             // a real robot on this port; empty: the emulated robot
+  std::string camera;             // a real robot's webcam, HOST:PORT (needed with `serial`)
+  std::filesystem::path out_dir;  // exists; the logs and the truth log go here
+  std::filesystem::path overlay;  // the overlay to write (empty: default_overlay_path)
+  double robot_speed = 1.0;       // the emulated robot's seconds per wall second
+  long long as_built_seed = -1;   // the emulated robot's build (-1: the description's)
+  int marker_poses = 24;
+  int touch_offs = 4;
+  unsigned seed = 1;  // of the marker poses
+  // Set (from any thread) to stop: the robot stops at once and the routine fails as
+  // interrupted; no overlay is written.
+  const std::atomic<bool>* stop = nullptr;
+  std::filesystem::path bin_dir;  // scaratwin-sim and -robot (empty: beside this program)
+};
+
+struct CalibrateResult {
+  CalibrationRun run;
+  std::filesystem::path overlay;
+  // each parameter beside the truth (the emulated robot only; empty with a real one)
+  std::vector<CalibrationParameter> compared;
+};
+
+// Runs a calibration session. `person`: the operator at a real robot (the emulated robot has
+// its own); a real robot without one is refused. `model` is the base description as loaded
+// (its as-built seed set to the emulated robot's, for the comparison only).
+Result<CalibrateResult> run_calibration(const RobotModel& model, const CalibrateOptions& options,
+                                        CalibrationOperator* person, const Say& say);
+
+}  // namespace scaratwin::session

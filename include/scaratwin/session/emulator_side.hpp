@@ -17,7 +17,7 @@
 #include "scaratwin/kinematics/robot_model.hpp"
 #include "scaratwin/protocol/messages.hpp"
 
-namespace scaratwin::cli {
+namespace scaratwin::session {
 
 // One truth line (TR) of the emulator.
 struct TruthSample {
@@ -79,4 +79,4 @@ class TruthRecorder {
 
 std::uint64_t monotonic_us();
 
-}  // namespace scaratwin::cli
+}  // namespace scaratwin::session

@@ -1,4 +1,4 @@
-#include "emulator_side.hpp"
+#include "scaratwin/session/emulator_side.hpp"
 
 #include <arpa/inet.h>
 #include <netinet/in.h>
@@ -14,7 +14,7 @@
 
 #include <fmt/format.h>
 
-namespace scaratwin::cli {
+namespace scaratwin::session {
 namespace {
 
 int connect_local(std::uint16_t port) {
@@ -222,4 +222,4 @@ std::vector<TruthSample> TruthRecorder::between(std::uint64_t from_us, std::uint
   return out;
 }
 
-}  // namespace scaratwin::cli
+}  // namespace scaratwin::session

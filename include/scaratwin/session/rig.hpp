@@ -10,12 +10,13 @@
 #include <optional>
 #include <string>
 
-#include "emulator_side.hpp"
 #include "scaratwin/core/result.hpp"
 #include "scaratwin/hub/process.hpp"
 #include "scaratwin/hub/tool_tracker.hpp"
+#include "scaratwin/session/emulator_side.hpp"
+#include "scaratwin/session/say.hpp"
 
-namespace scaratwin::cli {
+namespace scaratwin::session {
 
 struct RigOptions {
   std::string config_path;  // robot description for the simulator and the emulator
@@ -27,6 +28,8 @@ struct RigOptions {
   double truth_hz = TruthRecorder::kDemoHz;    // the emulated robot's truth recorder
   std::string mqtt;        // the broker whose fleet the simulator's fleet page shows (empty: none)
   bool companion = false;  // the simulator also serves the paper's companion TCP dialect
+  // where scaratwin-sim and scaratwin-robot are (empty: beside this program's executable)
+  std::filesystem::path bin_dir;
 };
 
 struct Rig {
@@ -45,8 +48,9 @@ struct Rig {
   void stop();
 };
 
-// Starts the rig; the children's logs go to `log_dir` (sim.log, robot.log). Prints what it
-// started on stdout.
-Result<Rig> start_rig(const RigOptions& options, const std::filesystem::path& log_dir);
+// Starts the rig; the children's logs go to `log_dir` (sim.log, robot.log). Says what it
+// started (the addresses of the 3D view, the robot's device).
+Result<Rig> start_rig(const RigOptions& options, const std::filesystem::path& log_dir,
+                      const Say& say);
 
-}  // namespace scaratwin::cli
+}  // namespace scaratwin::session

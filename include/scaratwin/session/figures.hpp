@@ -11,12 +11,12 @@
 #include <string>
 #include <vector>
 
-#include "emulator_side.hpp"
 #include "scaratwin/core/result.hpp"
 #include "scaratwin/hub/analysis.hpp"
 #include "scaratwin/hub/twin_db.hpp"
+#include "scaratwin/session/emulator_side.hpp"
 
-namespace scaratwin::cli {
+namespace scaratwin::session {
 
 // Calibration, measured: the virtual -> true tool at test poses the fit did not use, before
 // and after, and each identified parameter beside the true build.
@@ -64,4 +64,4 @@ ToolErrorStats virtual_vs_truth(TwinDb& db, const RobotModel& model, std::int64_
 Status write_results(const std::filesystem::path& path, const std::string& plant,
                      const DemoOutcome& o);
 
-}  // namespace scaratwin::cli
+}  // namespace scaratwin::session

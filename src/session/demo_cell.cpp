@@ -4,15 +4,10 @@
 // are split between the robots by reach and scheduled so that the arms keep their clearance on
 // the planned paths (trajectory/workcell_plan.hpp) before anything moves; while they run, the
 // simulator's contacts between the arms are watched, and a touch stops every robot.
-#include "demo_cell.hpp"
-
-#include "demo_figures.hpp"
-#include "emulator_side.hpp"
+#include "scaratwin/session/demo_cell.hpp"
 
 #include <atomic>
 #include <chrono>
-#include <csignal>
-#include <cstdio>
 #include <fstream>
 #include <memory>
 #include <thread>
@@ -32,11 +27,13 @@
 #include "scaratwin/hub/robot_interface.hpp"
 #include "scaratwin/hub/tasks.hpp"
 #include "scaratwin/kinematics/workcell.hpp"
+#include "scaratwin/session/emulator_side.hpp"
+#include "scaratwin/session/figures.hpp"
 #include "scaratwin/sim/mjcf.hpp"
 #include "scaratwin/trajectory/workcell_plan.hpp"
 #include "scaratwin/transport/serial.hpp"
 
-namespace scaratwin::cli {
+namespace scaratwin::session {
 namespace {
 
 using namespace std::chrono_literals;
@@ -54,9 +51,6 @@ double arm_half_width(const Workcell& cell) {
   return w;
 }
 double clearance_m(const Workcell& cell) { return 2 * arm_half_width(cell) + 0.010; }
-
-std::atomic<bool> g_interrupted{false};
-void on_interrupt(int) { g_interrupted = true; }
 
 // One robot of the demo: its description with the scene in its base frame, its database and
 // its hub.
@@ -140,13 +134,6 @@ std::vector<WorkcellTask> cell_tasks(const Workcell& cell, const std::vector<Sor
   return tasks;
 }
 
-Result<std::uint16_t> start_simulator(ChildProcess& sim) {
-  auto listening = sim.wait_for_line("listening on", 30s);
-  if (!listening) return Error{AppError::kRigStart, "simulator: " + listening.error().message};
-  const std::size_t colon = listening->rfind(':', listening->find(" (speed"));
-  return static_cast<std::uint16_t>(std::stoi(listening->substr(colon + 1)));
-}
-
 // Runs `body(arm)` for every arm at once; the first error, naming its robot.
 template <class F>
 Status for_each_at_once(std::vector<Arm>& arms, F body) {
@@ -166,49 +153,23 @@ Status for_each_at_once(std::vector<Arm>& arms, F body) {
 
 }  // namespace
 
-int run_cell_demo(const CellDemoOptions& a) {
-  const fs::path file = a.workcell.empty()
-                            ? default_robot_config_path().parent_path() / "two_arms_trays.toml"
-                            : fs::path(a.workcell);
-  auto cell_r = load_workcell_config(file);
-  if (!cell_r) {
-    std::fprintf(stderr, "scaratwin demo: %s\n", cell_r.error().message.c_str());
-    return kExitUsage;
-  }
-  const Workcell& cell = *cell_r;
+Result<CellDemoResult> run_cell_demo(const Workcell& cell, const fs::path& file,
+                                     const CellDemoOptions& a, const Say& say, const Say& warn) {
   const int n = static_cast<int>(cell.robots.size());
-  if (n != a.robots) {
-    std::fprintf(stderr, "scaratwin demo: --robots %d, but %s has %d robot%s (%s)\n", a.robots,
-                 file.c_str(), n, n == 1 ? "" : "s", robot_names(cell).c_str());
-    return kExitUsage;
-  }
-  const auto out_dir = create_out_dir(a.out.string(), "demo");
-  if (!out_dir) return kExitUsage;
-  const fs::path& out = *out_dir;
-  std::signal(SIGINT, on_interrupt);
-  std::signal(SIGTERM, on_interrupt);
-  fmt::print("scaratwin demo: {} robots ({}) of {}, results in {}\n", n, robot_names(cell),
-             file.string(), out.string());
+  const fs::path& out = a.out;
+  auto interrupted = [&a] { return a.interrupted != nullptr && a.interrupted->load(); };
+  say(fmt::format("scaratwin demo: {} robots ({}) of {}, results in {}", n, robot_names(cell),
+                  file.string(), out.string()));
 
   // 1. the simulator of the whole workcell, and each robot with its hub
-  auto sim = ChildProcess::start(
+  auto started = start_simulator(
       sibling_executable("scaratwin-sim"),
       {"--workcell", file.string(), "--port", "0", "--http-port", std::to_string(a.http_port)},
-      out / "sim.log");
-  if (!sim) {
-    std::fprintf(stderr, "scaratwin demo: %s\n", sim.error().message.c_str());
-    return kExitFailure;
-  }
-  auto port = start_simulator(**sim);
-  if (!port) {
-    std::fprintf(stderr, "scaratwin demo: %s\n", port.error().message.c_str());
-    return kExitFailure;
-  }
-  if (a.http_port != 0) {
-    if (auto ui = (*sim)->wait_for_line("http://", 5s); ui) {
-      fmt::print("3D view: {}\n", ui->substr(ui->find("http://")));
-    }
-  }
+      out / "sim.log", 30s);
+  if (!started) return Error{AppError::kRigStart, "simulator: " + started.error().message};
+  std::unique_ptr<ChildProcess> sim = std::move(started->process);
+  const std::uint16_t port = started->ready.port;
+  if (!started->ready.ui_url.empty()) say(fmt::format("3D view: {}", started->ready.ui_url));
   std::vector<Arm> arms(static_cast<std::size_t>(n));
   for (int i = 0; i < n; ++i) {
     Arm& arm = arms[static_cast<std::size_t>(i)];
@@ -217,8 +178,7 @@ int run_cell_demo(const CellDemoOptions& a) {
     arm.model = scene_in_base(cell, i);
     auto db = TwinDb::open(out / fmt::format("twin-{}.db", r.name));
     if (!db) {
-      std::fprintf(stderr, "scaratwin demo: %s\n", db.error().message.c_str());
-      return kExitFailure;
+      return db.error();
     }
     arm.db = std::move(*db);
     EmulatedRobotOptions eo;
@@ -240,32 +200,29 @@ int run_cell_demo(const CellDemoOptions& a) {
     }
     eo.log = out / fmt::format("robot-{}.log", r.name);
     HubOptions ho;
-    ho.sim_port = *port;
+    ho.sim_port = port;
     ho.sim_robot = i;
     ho.base = r.base;
     ho.description_source = r.description_file;
     ho.log_name = r.name;
     auto hub = Hub::connect(arm.model, emulated_robot(eo), ho, arm.db.get());
     if (!hub) {
-      std::fprintf(stderr, "scaratwin demo: %s: %s\n", r.name.c_str(), hub.error().message.c_str());
-      return kExitFailure;
+      return Error{hub.error().code, r.name + ": " + hub.error().message};
     }
     arm.hub = std::move(*hub);
-    fmt::print(
+    say(fmt::format(
         "robot {} '{}': firmware in the AVR emulator on {}, base at ({:.0f}, {:.0f}) mm, "
-        "{:.0f} deg, {}\n",
+        "{:.0f} deg, {}",
         i, r.name, arm.hub->robot_interface().where(), m_to_mm(r.base.x_m), m_to_mm(r.base.y_m),
         rad_to_deg(r.base.yaw_rad),
         a.ideal ? std::string("exact (plant ideal)")
-                : fmt::format("as built (seed {})", arm.build_seed));
+                : fmt::format("as built (seed {})", arm.build_seed)));
     if (!a.ideal) {
       // the truth of the robot as built: read only for the figures, as a tape measure is
       if (const std::uint16_t side = arm.hub->robot_interface().side_channel_port(); side != 0) {
         auto t = TruthRecorder::start(side, TruthRecorder::kDemoHz);
         if (!t) {
-          std::fprintf(stderr, "scaratwin demo: %s: %s\n", r.name.c_str(),
-                       t.error().message.c_str());
-          return kExitFailure;
+          return Error{t.error().code, r.name + ": " + t.error().message};
         }
         arm.truth = std::move(*t);
       }
@@ -273,23 +230,20 @@ int run_cell_demo(const CellDemoOptions& a) {
     auto run = arm.hub->begin_run(
         "cell-sort", fmt::format("robot {} '{}' of {}", i, r.name, file.filename().string()));
     if (!run) {
-      std::fprintf(stderr, "scaratwin demo: %s\n", run.error().message.c_str());
-      return kExitFailure;
+      return run.error();
     }
     arm.run = *run;
   }
-  std::fflush(stdout);
   const auto t0 = std::chrono::steady_clock::now();
 
   auto fail = [&](const std::string& why) {
-    std::fprintf(stderr, "scaratwin demo: %s\n", why.c_str());
+    warn(why);
     for (Arm& arm : arms) (void)arm.hub->end_run(false);
-    return kExitFailure;
+    return CellDemoResult{};
   };
 
   // 2. home every robot at once, mirrored
-  fmt::print("==> [1/4] home every robot against its endstops\n");
-  std::fflush(stdout);
+  say(fmt::format("==> [1/4] home every robot against its endstops"));
   if (Status s = for_each_at_once(
           arms,
           [](Arm& arm) {
@@ -304,8 +258,8 @@ int run_cell_demo(const CellDemoOptions& a) {
   }
 
   // 3. the cubes, the tasks, and the plan, checked before anything moves
-  fmt::print("==> [2/4] {} cubes on the table; the tasks split by reach and planned apart\n",
-             a.cubes);
+  say(fmt::format("==> [2/4] {} cubes on the table; the tasks split by reach and planned apart",
+                  a.cubes));
   WorkcellPlanOptions po;
   po.pick_place.approach_height_m = cell.scene.approach_height_m;
   po.home_after_each = true;  // a waiting arm stands at home, not over a tray
@@ -346,20 +300,19 @@ int run_cell_demo(const CellDemoOptions& a) {
   for (std::size_t t = 0; t < tasks.size(); ++t) {
     const int r = plan->robot_of_task[t];
     ++arms[static_cast<std::size_t>(r)].tasks;
-    fmt::print("  {} at ({:.0f}, {:.0f}) mm -> {}\n", tasks[t].what, m_to_mm(tasks[t].pick_W.x_m),
-               m_to_mm(tasks[t].pick_W.y_m), cell.robots[static_cast<std::size_t>(r)].name);
+    say(fmt::format("  {} at ({:.0f}, {:.0f}) mm -> {}", tasks[t].what,
+                    m_to_mm(tasks[t].pick_W.x_m), m_to_mm(tasks[t].pick_W.y_m),
+                    cell.robots[static_cast<std::size_t>(r)].name));
   }
   const ArmApproach& closest = plan->clearance.closest;
-  fmt::print(
+  say(fmt::format(
       "  planned: {:.1f} s; the arms at least {:.0f} mm apart seen from above (robots {} "
-      "and {} at {:.1f} s; clearance {:.0f} mm, {} looks)\n",
+      "and {} at {:.1f} s; clearance {:.0f} mm, {} looks)",
       plan->makespan_s, m_to_mm(closest.bound_m), closest.robot_a, closest.robot_b, closest.t_s,
-      m_to_mm(po.clearance.clearance_m), plan->clearance.looks);
-  std::fflush(stdout);
+      m_to_mm(po.clearance.clearance_m), plan->clearance.looks));
 
   // 4. every robot runs its timeline at once, mirrored; the simulator's contacts are watched
-  fmt::print("==> [3/4] the robots sort the cubes together, mirrored live\n");
-  std::fflush(stdout);
+  say(fmt::format("==> [3/4] the robots sort the cubes together, mirrored live"));
   auto contacts0 = scene.arm_contacts();
   if (!contacts0) return fail(contacts0.error().message);
   for (Arm& arm : arms) (void)arm.hub->set_twin_phase(protocol::TwinPhase::kControl);
@@ -369,7 +322,7 @@ int run_cell_demo(const CellDemoOptions& a) {
   std::thread watch([&] {
     while (running.load() > 0) {
       std::this_thread::sleep_for(100ms);
-      if (g_interrupted) {
+      if (interrupted()) {
         for (Arm& arm : arms) arm.hub->interrupt();
       }
       auto c = scene.arm_contacts();
@@ -395,7 +348,7 @@ int run_cell_demo(const CellDemoOptions& a) {
   const std::uint64_t sort_to_us = monotonic_us();
 
   // 5. the figures
-  fmt::print("==> [4/4] figures\n");
+  say(fmt::format("==> [4/4] figures"));
   auto final_objects = scene.objects();
   const int in_trays = final_objects ? cubes_in_trays(scene_in_base(cell, 0), *final_objects) : -1;
   auto contacts = scene.arm_contacts();
@@ -413,9 +366,9 @@ int run_cell_demo(const CellDemoOptions& a) {
   for (Arm& arm : arms) {
     const MirrorCounters mc = arm.hub->mirror_counters();
     lossless = lossless && mc.lost == 0;
-    fmt::print("  {}: {} tasks; mirror {} frames, {} lost, mean latency {:.2f} ms{}\n", arm.name,
-               arm.tasks, mc.frames, mc.lost, mc.mean_latency_ms,
-               arm.error.empty() ? "" : "; stopped: " + arm.error);
+    say(fmt::format("  {}: {} tasks; mirror {} frames, {} lost, mean latency {:.2f} ms{}", arm.name,
+                    arm.tasks, mc.frames, mc.lost, mc.mean_latency_ms,
+                    arm.error.empty() ? "" : "; stopped: " + arm.error));
     nlohmann::json rj = {{"name", arm.name},
                          {"tasks", arm.tasks},
                          {"frames", mc.frames},
@@ -432,11 +385,11 @@ int run_cell_demo(const CellDemoOptions& a) {
       const ToolErrorStats st = virtual_vs_truth(*arm.db, arm.model, arm.run, *arm.truth,
                                                  sort_from_us, sort_to_us, nullptr);
       if (st.count > 0) {
-        fmt::print(
+        say(fmt::format(
             "  {}: virtual -> true tool mean {:.2f} mm, p95 {:.2f} mm, max {:.2f} mm ({} "
-            "samples; as built, seed {})\n",
+            "samples; as built, seed {})",
             arm.name, m_to_mm(st.mean_m), m_to_mm(st.p95_m), m_to_mm(st.max_m), st.count,
-            arm.build_seed);
+            arm.build_seed));
         hub.record_metric(metric::kVirtTrueMeanMm, m_to_mm(st.mean_m), "mm");
         hub.record_metric(metric::kVirtTrueMaxMm, m_to_mm(st.max_m), "mm");
         rj["as_built_seed"] = arm.build_seed;
@@ -459,39 +412,34 @@ int run_cell_demo(const CellDemoOptions& a) {
     if (in_trays >= 0) hub.record_metric(metric::kCubesInTray, in_trays, "cubes");
   }
   if (touched) {
-    fmt::print("  the simulator saw robots {} and {} touch at {:.2f} s: every robot was stopped\n",
-               touch.robot_a, touch.robot_b, touch.t_us * 1e-6);
+    say(fmt::format(
+        "  the simulator saw robots {} and {} touch at {:.2f} s: every robot was stopped",
+        touch.robot_a, touch.robot_b, touch.t_us * 1e-6));
   } else {
-    fmt::print("  the arms never touched in the simulator\n");
+    say(fmt::format("  the arms never touched in the simulator"));
   }
   const bool ok = ran.ok() && in_trays == a.cubes && touches == 0 && lossless;
   {
     std::ofstream f(out / "results.json");
     f << j.dump(2) << "\n";
   }
-  fmt::print("results: {}\n", (out / "results.json").string());
+  say(fmt::format("results: {}", (out / "results.json").string()));
   for (Arm& arm : arms) {
     (void)arm.hub->end_run(ok);
     const fs::path report = out / fmt::format("report-{}.html", arm.name);
     if (Status s = write_report(*arm.db, arm.model, arm.run, report); !s) {
-      std::fprintf(stderr, "scaratwin demo: report of %s: %s\n", arm.name.c_str(),
-                   s.error().message.c_str());
+      warn("report of " + arm.name + ": " + s.error().message);
     } else {
-      fmt::print("report of {}: {}\n", arm.name, report.string());
+      say(fmt::format("report of {}: {}", arm.name, report.string()));
     }
   }
-  if (!ran) std::fprintf(stderr, "scaratwin demo: %s\n", ran.error().message.c_str());
-  fmt::print("demo {} in {:.0f} s: {} of {} cubes in their trays, {} robots\n",
-             ok ? "passed" : "FAILED", dur, std::max(in_trays, 0), a.cubes, n);
-  std::fflush(stdout);
-  if (a.keep_open) {
-    fmt::print("--keep-open: the simulator and its UI keep running; Ctrl-C to stop\n");
-    std::fflush(stdout);
-    while (!g_interrupted) std::this_thread::sleep_for(200ms);
-  }
+  if (!ran) warn(ran.error().message);
+  say(fmt::format("demo {} in {:.0f} s: {} of {} cubes in their trays, {} robots",
+                  ok ? "passed" : "FAILED", dur, std::max(in_trays, 0), a.cubes, n));
+  if (a.before_stop) a.before_stop();
   for (Arm& arm : arms) arm.hub.reset();
-  (*sim)->stop();
-  return ok ? kExitOk : kExitFailure;
+  sim->stop();
+  return CellDemoResult{ok};
 }
 
-}  // namespace scaratwin::cli
+}  // namespace scaratwin::session
