@@ -142,10 +142,12 @@ try {
     await page.locator('#conn b').textContent());
   check('the page keeps the robots it knew', (await row(page, 'cell-a')) !== null);
   await page.screenshot({ path: path.join(args.artifacts || dir, 'fleet.png') }).catch(() => {});
-  // the virtual robot's page links to the fleet page when its simulator watches a broker
+  // the virtual robot's page links to the fleet page when its simulator watches a broker (the
+  // link shows with the page's first scene message: on a machine busy with builds, the page and
+  // its feed may take well over 5 s to come up, so the wait is for the event, not a deadline)
   await page.goto(`http://127.0.0.1:${httpPort}/`);
   const link = await page.locator('#fleet-link').isVisible().catch(() => false) ||
-    await page.waitForSelector('#fleet-link', { state: 'visible', timeout: 5000 }).then(() => true, () => false);
+    await page.waitForSelector('#fleet-link', { state: 'visible', timeout: 30000 }).then(() => true, () => false);
   check('the robot\'s page links to the fleet page', link);
 } catch (e) {
   check('test ran to the end', false, e.stack || String(e));
