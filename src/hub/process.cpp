@@ -301,30 +301,44 @@ Result<SimulatorReady> parse_simulator_ready(const std::string& line) {
   return r;
 }
 
-Result<StartedSimulator> start_simulator(const std::filesystem::path& exe,
-                                         const std::vector<std::string>& args,
-                                         const std::filesystem::path& log,
-                                         std::chrono::milliseconds timeout) {
+namespace {
+
+// Starts `exe` with a ready descriptor and reads its ready line with `parse`.
+template <typename Ready, typename Parse>
+Result<std::pair<std::unique_ptr<ChildProcess>, Ready>> start_ready(
+    const std::filesystem::path& exe, const std::vector<std::string>& args,
+    const std::filesystem::path& log, std::chrono::milliseconds timeout, Parse parse) {
   auto p = ChildProcess::start(exe, args, log, true);
   if (!p) return p.error();
   auto line = (*p)->wait_ready(timeout);
   if (!line) return line.error();
-  auto ready = parse_simulator_ready(*line);
+  Result<Ready> ready = parse(*line);
   if (!ready) return ready.error();
-  return StartedSimulator{std::move(*p), std::move(*ready)};
+  return std::pair{std::move(*p), std::move(*ready)};
+}
+
+}  // namespace
+
+std::filesystem::path program_path(const std::filesystem::path& dir, const std::string& name) {
+  return dir.empty() ? sibling_executable(name) : dir / name;
+}
+
+Result<StartedSimulator> start_simulator(const std::filesystem::path& exe,
+                                         const std::vector<std::string>& args,
+                                         const std::filesystem::path& log,
+                                         std::chrono::milliseconds timeout) {
+  auto s = start_ready<SimulatorReady>(exe, args, log, timeout, parse_simulator_ready);
+  if (!s) return s.error();
+  return StartedSimulator{std::move(s->first), std::move(s->second)};
 }
 
 Result<StartedEmulator> start_emulator(const std::filesystem::path& exe,
                                        const std::vector<std::string>& args,
                                        const std::filesystem::path& log,
                                        std::chrono::milliseconds timeout) {
-  auto p = ChildProcess::start(exe, args, log, true);
-  if (!p) return p.error();
-  auto line = (*p)->wait_ready(timeout);
-  if (!line) return line.error();
-  auto ready = parse_emulator_ready(*line);
-  if (!ready) return ready.error();
-  return StartedEmulator{std::move(*p), std::move(*ready)};
+  auto s = start_ready<EmulatorReady>(exe, args, log, timeout, parse_emulator_ready);
+  if (!s) return s.error();
+  return StartedEmulator{std::move(s->first), std::move(s->second)};
 }
 
 Result<EmulatorReady> parse_emulator_ready(const std::string& line) {

@@ -50,9 +50,7 @@ struct BenchRig {
 
 Result<BenchRig> start_bench_rig(const BenchOptions& a, const std::filesystem::path& out,
                                  const std::string& tag) {
-  auto program = [&a](const std::string& exe) {
-    return a.bin_dir.empty() ? sibling_executable(exe) : a.bin_dir / exe;
-  };
+  auto program = [&a](const std::string& exe) { return program_path(a.bin_dir, exe); };
   auto robot = start_emulator(program("scaratwin-robot"),
                               {"--speed", "1", "--plant", "ideal", "--camera-port", "-1"},
                               out / ("robot_" + tag + ".log"), 30s);

@@ -21,9 +21,7 @@ void Rig::stop() {
 }
 
 Result<Rig> start_rig(const RigOptions& o, const std::filesystem::path& log_dir, const Say& say) {
-  auto program = [&o](const std::string& name) {
-    return o.bin_dir.empty() ? sibling_executable(name) : o.bin_dir / name;
-  };
+  auto program = [&o](const std::string& name) { return program_path(o.bin_dir, name); };
   Rig rig;
   // the virtual robot.
   std::vector<std::string> sim_args{"--port", "0", "--http-port", std::to_string(o.http_port)};

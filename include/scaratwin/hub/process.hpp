@@ -25,6 +25,9 @@ namespace scaratwin {
 
 // The path of an executable that sits beside the running one (e.g. "scaratwin-sim").
 std::filesystem::path sibling_executable(const std::string& name);
+// `name` in `dir`, or beside the running executable when `dir` is empty (a program that is not
+// installed beside ours, such as Python, says where they are).
+std::filesystem::path program_path(const std::filesystem::path& dir, const std::string& name);
 
 // The descriptor a child is given for its ready line.
 inline constexpr int kReadyFd = 3;
