@@ -66,40 +66,6 @@ class Lines {
   std::optional<py::error_already_set> failed_;
 };
 
-// Runs `f` on a worker thread with the GIL released while this thread watches for Python's
-// signals every 50 ms: Ctrl-C sets `stop`. Returns f's result; a KeyboardInterrupt stays
-// pending as this thread's Python error (`interrupted`).
-template <typename F>
-auto run_stoppable(std::atomic<bool>& stop, bool& interrupted, F&& f) {
-  using R = decltype(f());
-  std::optional<R> result;
-  py::gil_scoped_release nogil;
-  std::mutex mu;
-  std::condition_variable cv;
-  bool done = false;
-  std::thread worker([&] {
-    R r = f();
-    std::lock_guard<std::mutex> lock(mu);
-    result.emplace(std::move(r));
-    done = true;
-    cv.notify_all();
-  });
-  std::unique_lock<std::mutex> lock(mu);
-  while (!cv.wait_for(lock, std::chrono::milliseconds(50), [&] { return done; })) {
-    if (interrupted) continue;
-    lock.unlock();
-    {
-      py::gil_scoped_acquire gil;
-      interrupted = PyErr_CheckSignals() != 0;
-    }
-    if (interrupted) stop = true;
-    lock.lock();
-  }
-  lock.unlock();
-  worker.join();
-  return std::move(*result);
-}
-
 fs::path out_folder(const fs::path& out, const char* call) {
   std::error_code ec;
   fs::create_directories(out, ec);
@@ -201,10 +167,12 @@ void bind_session(py::module_& m) {
         Lines lines(std::move(on_line), stop);
         const session::Say say = lines.say();
         bool interrupted = false;
-        auto res = run_stoppable(stop, interrupted, [&] {
-          return session::run_demo(r->model, o, say,
-                                   [&say](const std::string& l) { say("demo: " + l); });
-        });
+        auto res = run_off_gil(
+            [&] {
+              return session::run_demo(r->model, o, say,
+                                       [&say](const std::string& l) { say("demo: " + l); });
+            },
+            [&stop] { stop = true; }, interrupted);
         if (interrupted) throw py::error_already_set();
         lines.rethrow();
         return PyDemoResult{unwrap(std::move(res), ErrorKind::kLink)};
@@ -299,8 +267,8 @@ void bind_session(py::module_& m) {
         Lines lines(std::move(on_line), stop);
         const session::Say say = lines.say();
         bool interrupted = false;
-        auto res = run_stoppable(stop, interrupted,
-                                 [&] { return session::run_calibration(model, o, nullptr, say); });
+        auto res = run_off_gil([&] { return session::run_calibration(model, o, nullptr, say); },
+                               [&stop] { stop = true; }, interrupted);
         if (interrupted) throw py::error_already_set();
         lines.rethrow();
         return PyCalibrationResult{unwrap(std::move(res), ErrorKind::kError)};

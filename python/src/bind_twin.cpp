@@ -45,42 +45,16 @@ using TwinPtr = std::shared_ptr<Twin>;
 template <typename F>
 auto blocking(Twin& twin, const char* call, ErrorKind kind, F&& f) {
   Hub& hub = twin.live(call);
-  using R = decltype(f());
-  std::optional<R> result;
   bool interrupted = false;
-  {
-    py::gil_scoped_release nogil;
-    std::mutex mu;
-    std::condition_variable cv;
-    bool done = false;
-    std::thread worker([&] {
-      R r = f();
-      std::lock_guard<std::mutex> lock(mu);
-      result.emplace(std::move(r));
-      done = true;
-      cv.notify_all();
-    });
-    std::unique_lock<std::mutex> lock(mu);
-    while (!cv.wait_for(lock, std::chrono::milliseconds(50), [&] { return done; })) {
-      if (interrupted) continue;
-      lock.unlock();
-      {
-        py::gil_scoped_acquire gil;
-        // a pending KeyboardInterrupt stays set as this thread's Python error
-        interrupted = PyErr_CheckSignals() != 0;
-      }
-      if (interrupted) hub.interrupt();  // stops the robot; the statement fails at once
-      lock.lock();
-    }
-    lock.unlock();
-    worker.join();
-  }
+  // Ctrl-C stops the robot; the statement fails at once
+  auto result = run_off_gil(
+      std::forward<F>(f), [&hub] { hub.interrupt(); }, interrupted);
   if (interrupted) {
     hub.clear_interrupt();
     throw py::error_already_set();
   }
-  if (!*result) raise(kind, result->error());
-  return std::move(*result).value();
+  if (!result) raise(kind, result.error());
+  return std::move(result).value();
 }
 
 // One statement as the command line writes it ("move 0.18 0.08 -0.015"), parsed and run by

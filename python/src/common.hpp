@@ -6,8 +6,13 @@
 #include <pybind11/pybind11.h>
 
 #include <array>
+#include <chrono>
+#include <condition_variable>
 #include <memory>
+#include <mutex>
+#include <optional>
 #include <string>
+#include <thread>
 
 #include "scaratwin/core/result.hpp"
 #include "scaratwin/kinematics/robot_model.hpp"
@@ -85,6 +90,42 @@ py::array_t<double> new_rows(py::ssize_t n, bool single, int width = 4);
 
 // The C++ trajectory inside a scaratwin.Trajectory (raises TypeError for anything else).
 const JointTrajectory& trajectory_of(const py::handle& obj);
+
+// Runs `f` on a worker thread with the GIL released, while the calling thread checks Python's
+// signals every 50 ms. On Ctrl-C, `on_interrupt()` runs once (it stops the robot, so that `f`
+// ends soon) and `interrupted` turns true; the KeyboardInterrupt stays pending as this
+// thread's Python error, for the caller to raise (py::error_already_set) once it has tidied
+// up. Returns f's result.
+template <typename F, typename G>
+auto run_off_gil(F&& f, G&& on_interrupt, bool& interrupted) {
+  using R = decltype(f());
+  std::optional<R> result;
+  py::gil_scoped_release nogil;
+  std::mutex mu;
+  std::condition_variable cv;
+  bool done = false;
+  std::thread worker([&] {
+    R r = f();
+    std::lock_guard<std::mutex> lock(mu);
+    result.emplace(std::move(r));
+    done = true;
+    cv.notify_all();
+  });
+  std::unique_lock<std::mutex> lock(mu);
+  while (!cv.wait_for(lock, std::chrono::milliseconds(50), [&] { return done; })) {
+    if (interrupted) continue;
+    lock.unlock();
+    {
+      py::gil_scoped_acquire gil;
+      interrupted = PyErr_CheckSignals() != 0;
+    }
+    if (interrupted) on_interrupt();
+    lock.lock();
+  }
+  lock.unlock();
+  worker.join();
+  return std::move(*result);
+}
 
 void bind_robot(py::module_& m);
 void bind_trajectory(py::module_& m);
