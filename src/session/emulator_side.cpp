@@ -60,6 +60,7 @@ std::optional<TruthSample> parse_truth_line(const std::string& line) {
   try {
     s.mono_us = std::stoull(field(line, "mono_us").value_or("0"));
     s.sim_us = std::stoull(field(line, "sim_us").value_or("0"));
+    s.board_us = std::stoull(field(line, "board_us").value_or("0"));
     s.as_built = field(line, "plant").value_or("") == "as-built";
     if (s.as_built) {
       const char* qk[] = {"d1_m", "q2_rad", "q3_rad", "q4_rad"};

@@ -36,9 +36,11 @@ ToolErrorStats virtual_vs_truth(TwinDb& db, const RobotModel& model, std::int64_
   std::sort(reports.begin(), reports.end(),
             [](const TimedJoints& x, const TimedJoints& y) { return x.t_s < y.t_s; });
   std::vector<ToolTruth> tt;
+  // the reports' times are the firmware's micros(), which starts over at every reset of the
+  // board (each open of a Uno's port): the truth's board clock is the same clock
   for (const TruthSample& t : truth.between(from_us, to_us)) {
     if (t.as_built)
-      tt.push_back({static_cast<double>(t.sim_us) / 1e6, {t.tool[0], t.tool[1], t.tool[2]}});
+      tt.push_back({static_cast<double>(t.board_us) / 1e6, {t.tool[0], t.tool[1], t.tool[2]}});
   }
   const ToolErrorStats st = tool_error_vs_truth(model, reports, tt, 0.05, distances);
   return st;

@@ -22,7 +22,8 @@ namespace scaratwin::session {
 // One truth line (TR) of the emulator.
 struct TruthSample {
   std::uint64_t mono_us = 0;        // CLOCK_MONOTONIC of this machine when it was taken
-  std::uint64_t sim_us = 0;         // emulated time: the firmware's micros() clock
+  std::uint64_t sim_us = 0;         // emulated time since the emulator started
+  std::uint64_t board_us = 0;       // emulated time since the board's last reset: its micros()
   bool as_built = false;            // plant=as-built (else ideal: no true joints or tool)
   JointVector q{};                  // true joints
   std::array<double, 4> tool{};     // true tool x, y, z (m), yaw (rad)
