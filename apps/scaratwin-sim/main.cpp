@@ -47,7 +47,8 @@ struct Args {
   double status_s = 0.0;
   std::string http_bind = "127.0.0.1";
   int http_port = 8080;
-  int ready_fd = -1;  // --ready-fd: the ready line goes there
+  int ready_fd = -1;   // --ready-fd: the ready line goes there
+  int parent_fd = -1;  // --parent-fd: the lifeline from the program that started it
   std::string web_root;
   std::string token;
   int companion_port = -1;  // -1: off
@@ -126,6 +127,10 @@ int main(int argc, char** argv) {
                  "once it serves, write one JSON line on this open descriptor (port, ui_url, "
                  "fleet_url, companion_port) and close it: for the programs that start the "
                  "simulator")
+      ->check(CLI::Range(3, 1023));
+  app.add_option("--parent-fd", a.parent_fd,
+                 "end (as on SIGTERM) once this descriptor, a pipe from the program that started "
+                 "the simulator, reads its end: that program is gone, however it died")
       ->check(CLI::Range(3, 1023));
   app.add_option("--http-bind", a.http_bind, "address the browser UI listens on")
       ->capture_default_str();
@@ -329,6 +334,7 @@ int main(int argc, char** argv) {
   }
   std::signal(SIGINT, on_signal);
   std::signal(SIGTERM, on_signal);
+  if (a.parent_fd >= 0) exit_with_parent_fd(a.parent_fd);
   (*world)->start();
   std::printf("scaratwin-sim: listening on %s:%u (speed %s, mode %s, camera %s)\n", a.bind.c_str(),
               (*server)->port(), a.speed.c_str(), a.mode.c_str(), wo.camera ? "on" : "off");

@@ -9,7 +9,9 @@
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
+#include <filesystem>
 #include <fstream>
+#include <optional>
 #include <sstream>
 #include <thread>
 
@@ -23,6 +25,9 @@
 #include "scaratwin/hub/process.hpp"
 #include "scaratwin/hub/runner.hpp"
 #include "scaratwin/kinematics/workcell.hpp"
+#include "scaratwin/protocol/codec_core.h"
+#include "scaratwin/session/port_owner.hpp"
+#include "scaratwin/session/say.hpp"
 
 namespace scaratwin::cli {
 namespace {
@@ -35,12 +40,39 @@ struct StatementArgs {
 };
 
 void print_result(const Statement& st, const std::string& result) {
-  if (st.line > 0) {
-    fmt::print("{:>4}  {:<36} {}\n", st.line, st.source, result);
-  } else {
-    fmt::print("{}\n", result);
-  }
+  fmt::print("{}\n", session::statement_line(st, result));
   std::fflush(stdout);
+}
+
+// When a `scaratwin hub` owns the robot's port (session/port_owner.hpp), the statement or the
+// script goes to it: the robot it holds stays as it is (homed), where opening the port would
+// reset a Uno. Nothing when no owner holds the port (the command opens it itself); else the
+// exit status.
+std::optional<int> on_the_owner(const LinkArgs& l, const std::string& kind,
+                                const session::OwnerRequest& request) {
+  if (!l.workcell.empty()) return std::nullopt;
+  auto device = session::single_serial_device(l);
+  if (!device) return std::nullopt;
+  auto r = session::ask_owner(*device, request, session::say_on_stdout());
+  if (!r) return std::nullopt;
+  if (*r) return kExitOk;
+  std::fprintf(stderr, "scaratwin %s: %s\n", kind.c_str(), r->error().message.c_str());
+  return r->error().code == error_code(HubError::kInterrupted) ? 130 : kExitFailure;
+}
+
+// A statement refused because the robot is not homed, said with what a board that resets on
+// every open needs: a hub that keeps its port.
+Status with_owner_hint(Status s, const LinkArgs& l) {
+  if (s || s.error().code != protocol_error_code(protocol::core::kErrNotHomed) ||
+      !session::single_serial_device(l)) {
+    return s;
+  }
+  Error e = s.error();
+  e.message +=
+      ". If an earlier statement homed it, the board reset when this one opened its "
+      "port (as a Uno does): keep the port with `scaratwin hub` in a terminal of its "
+      "own, and the statements go to it (docs/owner.md)";
+  return e;
 }
 
 int run_statement(const CommonOptions& common, const LinkArgs& l, const StatementArgs& a) {
@@ -52,8 +84,14 @@ int run_statement(const CommonOptions& common, const LinkArgs& l, const Statemen
     std::fprintf(stderr, "scaratwin %s: %s\n", a.name.c_str(), st.error().message.c_str());
     return kExitUsage;
   }
+  if (st->kind == StatementKind::kShoot && !st->text.empty()) {
+    // the owner saves the picture: where this command was asked for
+    std::error_code ec;
+    text = "shoot " + std::filesystem::absolute(st->text, ec).string();
+  }
+  if (auto owned = on_the_owner(l, a.name, session::OwnerRequest{text, {}, {}})) return *owned;
   return with_hub(common, l, a.name, text,
-                  [&](Hub& hub) { return execute(hub, *st, print_result); });
+                  [&](Hub& hub) { return with_owner_hint(execute(hub, *st, print_result), l); });
 }
 
 int run_file(const CommonOptions& common, const LinkArgs& l, const StatementArgs& a) {
@@ -70,8 +108,12 @@ int run_file(const CommonOptions& common, const LinkArgs& l, const StatementArgs
     std::fprintf(stderr, "scaratwin run: %s\n", script.error().message.c_str());
     return kExitUsage;
   }
-  return with_hub(common, l, "script", a.file,
-                  [&](Hub& hub) { return run_script(hub, *script, a.file, print_result); });
+  if (auto owned = on_the_owner(l, "run", session::OwnerRequest{{}, ss.str(), a.file})) {
+    return *owned;
+  }
+  return with_hub(common, l, "script", a.file, [&](Hub& hub) {
+    return with_owner_hint(run_script(hub, *script, a.file, print_result), l);
+  });
 }
 
 }  // namespace

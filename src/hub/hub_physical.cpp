@@ -53,6 +53,17 @@ Result<PhysicalState> Hub::fresh_physical(double timeout_s) {
   return physical_;
 }
 
+Result<PhysicalState> Hub::motion_start(double timeout_s) {
+  auto now = fresh_physical(timeout_s);
+  if (!now) return now;
+  if ((now->raw.flags & pr::state_flags::kHomed) == 0) {
+    return Error{protocol_error_code(pr::core::kErrNotHomed),
+                 "the robot is not homed: its counts are no joint angles until it is (it "
+                 "powered up or reset); home it first (`home`)"};
+  }
+  return now;
+}
+
 Status Hub::check(const char* what, Result<tr::RobotChannel::Reply> r) {
   if (!r) return hub_error(fmt::format("robot {}: {}", what, r.error().message));
   return Ok{};

@@ -9,6 +9,7 @@
 
 #include <cerrno>
 #include <cstring>
+#include <thread>
 
 #include <fmt/format.h>
 
@@ -41,6 +42,19 @@ Status announce_ready(int fd, const std::string& json) {
   }
   ::close(fd);
   return Ok{};
+}
+
+void exit_with_parent_fd(int fd) {
+  std::thread([fd] {
+    char c;
+    for (;;) {
+      const ssize_t n = ::read(fd, &c, 1);
+      if (n < 0 && errno == EINTR) continue;
+      if (n > 0) continue;  // nobody writes; should anyone, it is no end
+      break;
+    }
+    ::kill(::getpid(), SIGTERM);
+  }).detach();
 }
 
 namespace {
@@ -76,10 +90,12 @@ Result<std::unique_ptr<ChildProcess>> ChildProcess::start(const std::filesystem:
   if (!high_pipe(fds))
     return Error{HubError::kStartFailed, fmt::format("pipe: {}", std::strerror(errno))};
   int ready[2] = {-1, -1};
-  if (ready_fd && !high_pipe(ready)) {
+  int lifeline[2] = {-1, -1};
+  if (ready_fd && (!high_pipe(ready) || !high_pipe(lifeline))) {
     const int err = errno;
-    close(fds[0]);
-    close(fds[1]);
+    for (int fd : {fds[0], fds[1], ready[0], ready[1]}) {
+      if (fd >= 0) close(fd);
+    }
     return Error{HubError::kStartFailed, fmt::format("pipe: {}", std::strerror(err))};
   }
   posix_spawn_file_actions_t fa;
@@ -87,10 +103,16 @@ Result<std::unique_ptr<ChildProcess>> ChildProcess::start(const std::filesystem:
   posix_spawn_file_actions_adddup2(&fa, fds[1], STDOUT_FILENO);
   posix_spawn_file_actions_adddup2(&fa, fds[1], STDERR_FILENO);
   posix_spawn_file_actions_addopen(&fa, STDIN_FILENO, "/dev/null", O_RDONLY, 0);
-  if (ready_fd) posix_spawn_file_actions_adddup2(&fa, ready[1], kReadyFd);
+  if (ready_fd) {
+    posix_spawn_file_actions_adddup2(&fa, ready[1], kReadyFd);
+    posix_spawn_file_actions_adddup2(&fa, lifeline[0], kParentFd);
+  }
   std::vector<std::string> all{exe.string()};
   all.insert(all.end(), args.begin(), args.end());
-  if (ready_fd) all.insert(all.end(), {"--ready-fd", std::to_string(kReadyFd)});
+  if (ready_fd) {
+    all.insert(all.end(),
+               {"--ready-fd", std::to_string(kReadyFd), "--parent-fd", std::to_string(kParentFd)});
+  }
   std::vector<char*> argv;
   for (std::string& a : all) argv.push_back(a.data());
   argv.push_back(nullptr);
@@ -98,10 +120,16 @@ Result<std::unique_ptr<ChildProcess>> ChildProcess::start(const std::filesystem:
   const int rc = posix_spawn(&pid, exe.c_str(), &fa, nullptr, argv.data(), environ);
   posix_spawn_file_actions_destroy(&fa);
   close(fds[1]);
-  if (ready_fd) close(ready[1]);
+  if (ready_fd) {
+    close(ready[1]);
+    close(lifeline[0]);
+  }
   if (rc != 0) {
     close(fds[0]);
-    if (ready_fd) close(ready[0]);
+    if (ready_fd) {
+      close(ready[0]);
+      close(lifeline[1]);
+    }
     return Error{HubError::kStartFailed,
                  fmt::format("cannot start '{}': {}", exe.string(), std::strerror(rc))};
   }
@@ -109,6 +137,7 @@ Result<std::unique_ptr<ChildProcess>> ChildProcess::start(const std::filesystem:
   p->pid_ = pid;
   p->out_fd_ = fds[0];
   p->ready_fd_ = ready[0];
+  p->lifeline_fd_ = lifeline[1];
   p->name_ = exe.filename().string();
   if (!log.empty()) {
     p->log_fd_ = ::open(log.c_str(), O_WRONLY | O_CREAT | O_APPEND | O_CLOEXEC, 0644);
@@ -253,7 +282,10 @@ std::string ChildProcess::output_tail(size_t n) {
   return out;
 }
 
-ChildProcess::~ChildProcess() { stop(); }
+ChildProcess::~ChildProcess() {
+  stop();
+  if (lifeline_fd_ >= 0) close(lifeline_fd_);
+}
 
 namespace {
 

@@ -44,13 +44,13 @@ Result<std::string> execute_one(Hub& hub, const Statement& st) {
       return describe(*f);
     }
     case StatementKind::kLine: {
-      auto now = hub.fresh_physical(2.0);
+      auto now = hub.motion_start();
       if (!now) return now.error();
       const double yaw = st.has_yaw ? v[3] : forward(model, now->q).yaw_rad;
       return run_planned(hub, plan_line(model, now->q, {v[0], v[1], v[2], yaw}));
     }
     case StatementKind::kMoveJoints: {
-      auto now = hub.fresh_physical(2.0);
+      auto now = hub.motion_start();
       if (!now) return now.error();
       return run_planned(hub, plan_quintic(model, now->q, {v[0], v[1], v[2], v[3]}));
     }
@@ -88,7 +88,7 @@ Result<std::string> execute_one(Hub& hub, const Statement& st) {
       if (!objs) return objs.error();
       for (const protocol::ObjectPose& o : *objs) {
         if (o.id != static_cast<int>(v[0])) continue;
-        auto now = hub.fresh_physical(2.0);
+        auto now = hub.motion_start();
         if (!now) return now.error();
         auto plan = plan_sorting(model, now->q, {{o.color, o.x_m, o.y_m, o.yaw_rad}});
         if (!plan) return plan.error();
@@ -100,7 +100,7 @@ Result<std::string> execute_one(Hub& hub, const Statement& st) {
     case StatementKind::kSort: {
       auto items = recognise_cubes(hub, model);
       if (!items) return items.error();
-      auto now = hub.fresh_physical(2.0);
+      auto now = hub.motion_start();
       if (!now) return now.error();
       auto plan = plan_sorting(model, now->q, *items);
       if (!plan) return plan.error();

@@ -51,7 +51,7 @@ Result<double> grasp_yaw(const RobotModel& model, const JointVector& seed, doubl
 
 Result<ControlFigures> move_to(Hub& hub, const ToolPose& target, int samples) {
   const RobotModel& model = hub.model();
-  auto now = hub.fresh_physical(2.0);
+  auto now = hub.motion_start();
   if (!now) return now.error();
   auto goal = inverse(model, target, now->q);
   if (!goal) return task_error(fmt::format("target unreachable: {}", goal.error().message));
@@ -64,7 +64,7 @@ Result<ControlFigures> move_to(Hub& hub, const ToolPose& target, int samples) {
   auto points = hub.run_trajectory(*traj);
   if (!points) return points.error();
   // let the last reports through the mirror.
-  auto phys = hub.fresh_physical(2.0);
+  auto phys = hub.motion_start();
   if (!phys) return phys.error();
   std::this_thread::sleep_for(std::chrono::milliseconds(100));
   auto sim = hub.sim_state();
@@ -81,7 +81,7 @@ Result<ControlFigures> move_to(Hub& hub, const ToolPose& target, int samples) {
 }
 
 Result<ControlFigures> move_to_position(Hub& hub, double x, double y, double z, double yaw) {
-  auto now = hub.fresh_physical(2.0);
+  auto now = hub.motion_start();
   if (!now) return now.error();
   std::string why;
   for (int k = 0; k < 24; ++k) {

@@ -71,11 +71,11 @@ int main(int argc, char** argv) {
                  "flash' wrote through the bootloader survives a restart");
   bool auto_reset = false;
   app.add_flag("--auto-reset", auto_reset,
-               "a Uno's auto-reset: opening the port resets the MCU, as the USB chip does on DTR "
-               "(not yet the default: docs/firmware.md)");
+               "a Uno's auto-reset, the default: opening the port resets the MCU, as the USB "
+               "chip does on DTR");
   app.add_flag("--no-auto-reset", no_auto_reset,
                "a board with its auto-reset cut (10 uF between RESET and GND): opening the port "
-               "does not reset the MCU (the default for now)")
+               "does not reset the MCU")
       ->excludes("--auto-reset");
   app.add_option("--speed", opt.speed, "emulated seconds per wall-clock second; 0 = unpaced")
       ->capture_default_str()
@@ -128,12 +128,17 @@ int main(int argc, char** argv) {
                  "side_port, camera_port, plant, auto_reset) and close it: for the programs "
                  "that start the emulator")
       ->check(CLI::Range(3, 1023));
+  int parent_fd = -1;
+  app.add_option("--parent-fd", parent_fd,
+                 "end (as on SIGTERM) once this descriptor, a pipe from the program that started "
+                 "the emulator, reads its end: that program is gone, however it died")
+      ->check(CLI::Range(3, 1023));
   bool exit_with_parent = false;
   app.add_flag("--exit-with-parent", exit_with_parent,
                "terminate when the process that started the emulator dies (tests)");
   CLI11_PARSE(app, argc, argv);
   if (exit_with_parent) ::prctl(PR_SET_PDEATHSIG, SIGTERM);
-  opt.auto_reset = auto_reset && !no_auto_reset;
+  opt.auto_reset = !no_auto_reset;
   if (bootloader != "none") opt.bootloader = bootloader;
   if (firmware == "auto") {
     std::error_code ec;
@@ -244,6 +249,7 @@ int main(int argc, char** argv) {
   std::signal(SIGINT, on_signal);
   std::signal(SIGTERM, on_signal);
   std::signal(SIGPIPE, SIG_IGN);
+  if (parent_fd >= 0) exit_with_parent_fd(parent_fd);
   Status st = e.run(g_stop);
   std::printf("final %s\n", e.truth_line().c_str());  // the truth when the run ended
   if (!opt.pty_symlink.empty()) ::unlink(opt.pty_symlink.c_str());

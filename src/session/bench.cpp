@@ -150,7 +150,33 @@ std::array<long, 3> companion_zero(const RobotModel& model) {
                                                static_cast<double>(j2_backed)))};
 }
 
-// The robot's state over a raw serial link: QS= until the counts are `want` at rest.
+void drain(transport::Link& link) {
+  while (link.receive(transport::Duration(100))) {
+  }
+}
+
+// The robot's port opened raw, as the paper's scripts open it. A Uno resets on the open: its
+// bootloader runs about 1.5 s, then the firmware says hello once (HI=...); what it sends before
+// it, and its state reports at the power-up rate, are read and dropped. A board whose
+// auto-reset is cut says no hello: after 4 s the link is used as it is.
+Result<std::unique_ptr<transport::SerialLink>> open_raw(const std::string& device) {
+  transport::SerialOptions so;
+  so.device = device;
+  auto link = transport::SerialLink::create(so);
+  if (!link) return link.error();
+  if (Status s = (*link)->wait_connected(transport::Duration(3000)); !s) return s.error();
+  const auto until = std::chrono::steady_clock::now() + 4s;
+  while (std::chrono::steady_clock::now() < until) {
+    auto p = (*link)->receive(transport::Duration(100));
+    if (p && p->line.rfind("HI=", 0) == 0) break;
+  }
+  (void)(*link)->send("SR=0=\n");
+  drain(**link);
+  return link;
+}
+
+// The robot's state over a raw serial link: QS= until the counts are `want`, homed and at
+// rest.
 Status wait_counts(transport::SerialLink& link, const std::array<long, 3>& want, double timeout_s) {
   const auto until = std::chrono::steady_clock::now() + std::chrono::duration<double>(timeout_s);
   while (std::chrono::steady_clock::now() < until) {
@@ -161,7 +187,10 @@ Status wait_counts(transport::SerialLink& link, const std::array<long, 3>& want,
       long seq = 0, t = 0, z = 0, j2 = 0, j3 = 0, w = 0, g = 0, flags = 0, q = 0;
       if (std::sscanf(p->line.c_str(), "ST=%ld=%ld=%ld=%ld=%ld=%ld=%ld=%ld=%ld=", &seq, &t, &z, &j2,
                       &j3, &w, &g, &flags, &q) == 9) {
-        if (z == want[0] && j2 == want[1] && j3 == want[2] && (flags & 2) == 0) return Ok{};
+        if (z == want[0] && j2 == want[1] && j3 == want[2] && (flags & 1) != 0 &&
+            (flags & 2) == 0) {
+          return Ok{};
+        }
         break;
       }
     }
@@ -215,15 +244,17 @@ Result<std::vector<ControlResult>> measure_control(const RobotModel& model, cons
     // the companion dialect on (the robot stays homed: the frame's zero is that homing's)
     if (Status s = (*hub)->set_setting(10, 1); !s) return s.error();
   }
-  // single-class: the companion scripts' numberTran over the same port, raw
-  transport::SerialOptions so;
-  so.device = ho.serial_device;
-  auto link = transport::SerialLink::create(so);
+  // single-class: the companion scripts' numberTran over the same port, raw. A board that
+  // reset on the open homes by itself in the companion dialect, as the companion sketch does
+  // in its setup(): the measure starts once it stands homed at the home pose.
+  auto link = open_raw(ho.serial_device);
   if (!link) return link.error();
-  if (Status s = (*link)->wait_connected(transport::Duration(3000)); !s) return s.error();
-  (void)(*link)->send("SR=0=\n");
-  std::this_thread::sleep_for(200ms);
-  while ((*link)->receive(transport::Duration(50))) {
+  const auto at_home = joints_to_steps(model, model.home);
+  if (Status s = wait_counts(**link, {at_home[0], at_home[1], at_home[2]}, 120.0); !s) {
+    return Error{AppError::kBench,
+                 fmt::format("after the port's open: {} (the power-up homing of the companion "
+                             "dialect)",
+                             s.error().message)};
   }
   const auto zero = companion_zero(model);
   for (std::size_t k = 0; k < goals.size(); ++k) {
@@ -424,11 +455,6 @@ class SingleClassTwin {
 };
 
 // Reads what the robot answers on a raw link until it falls quiet.
-void drain(transport::Link& link) {
-  while (link.receive(transport::Duration(100))) {
-  }
-}
-
 }  // namespace
 
 Result<std::vector<MappingResult>> measure_mapping(const RobotModel& model, const BenchOptions& a,
@@ -477,13 +503,8 @@ Result<std::vector<MappingResult>> measure_mapping(const RobotModel& model, cons
     if (Status s = (*hub)->wait_idle(30.0); !s) return s.error();
   }
   // single-class: the robot's reports one value per line, the twin loading them one by one
-  transport::SerialOptions so;
-  so.device = ho.serial_device;
-  auto link = transport::SerialLink::create(so);
+  auto link = open_raw(ho.serial_device);
   if (!link) return link.error();
-  if (Status s = (*link)->wait_connected(transport::Duration(3000)); !s) return s.error();
-  (void)(*link)->send("SR=0=\n");
-  drain(**link);
   (void)(*link)->send("CF=10=2=\n");
   drain(**link);
   transport::TcpClientOptions to;

@@ -33,7 +33,8 @@ guide, prefix, work = sys.argv[1:4]
 long_mode = "--long" in sys.argv[4:]
 data = os.path.join(prefix, "share", "scaratwin")
 KINDS = {"guide", "guide-start", "guide-board", "guide-long", "guide-setup"}
-READY = {"scaratwin robot": "pty: ", "scaratwin sim": "listening on"}
+READY = {"scaratwin robot": "pty: ", "scaratwin sim": "listening on",
+         "scaratwin hub": "its port's statements at"}
 
 
 def fail(msg):

@@ -14,7 +14,8 @@ import scaratwin as st
 
 def test_the_short_demo_sorts_its_cube_and_writes_every_record(tmp_path):
     lines = []
-    r = st.demo(out=tmp_path, cubes=1, calibrate=False, on_line=lines.append)
+    # the emulated robot at twice the wall clock, as CI runs the demo's own test (its budget)
+    r = st.demo(out=tmp_path, cubes=1, calibrate=False, robot_speed=2.0, on_line=lines.append)
     assert r.ok, (r.failure, lines[-20:])
     assert r.failure is None
     assert r.plant == "as-built"
@@ -68,7 +69,7 @@ def test_calibrate_identifies_the_build_the_emulator_drew(tmp_path):
     overlay = tmp_path / "scara.calibrated.toml"
     lines = []
     c = st.calibrate(out=tmp_path, robot=base, overlay=overlay, poses=12, touch_offs=3,
-                     as_built_seed=11, on_line=lines.append)
+                     as_built_seed=11, robot_speed=2.0, on_line=lines.append)
     assert c.overlay == overlay
     assert c.pixel_rms < 1.0
     # the overlay is a description the library loads, and it is the calibrated one

@@ -25,7 +25,7 @@ struct ErrorRange {
 };
 
 // Sorted by `first`; the ranges do not overlap (static_assert below). Code 0 is no error.
-inline constexpr std::array<ErrorRange, 15> kErrorRanges{{
+inline constexpr std::array<ErrorRange, 16> kErrorRanges{{
     {"kinematics", "IkError", 1, 9},
     {"trajectory", "PlanError", 10, 19},
     {"config", "ConfigError", 20, 29},
@@ -40,6 +40,7 @@ inline constexpr std::array<ErrorRange, 15> kErrorRanges{{
     {"database", "DbError", 120, 129},
     {"emulator", "EmulatorError", 130, 139},
     {"plant", "PlantError", 140, 149},
+    {"session", "session::SessionError", 150, 159},
     {"protocol", "protocol_error_code(N)", 201, 255},
 }};
 // The fleet's codes are in their own, wider range (they reach MQTT clients as "code").
@@ -194,6 +195,16 @@ enum class PlantError : int {
   kInvalidRobot = 141,  // the as-built robot is not a valid robot
 };
 
+namespace session {
+// A twin session's own steps (session/): the owner of a robot's port and its clients.
+enum class SessionError : int {
+  kPortOwned = 150,    // another program owns the robot's port (the message names it)
+  kOwnerSocket = 151,  // the owner's local socket cannot be made or bound
+  kOwnerGone = 152,    // the port's owner ended the connection before it answered
+  kOwnerReply = 153,   // a request or an answer on the owner's socket that is not valid
+};
+}  // namespace session
+
 namespace fleet {
 // The fleet's MQTT bridge (fleet/topics.hpp, fleet/mqtt_bridge.hpp). Unscoped: the bridge's
 // replies carry them as plain numbers.
@@ -265,6 +276,8 @@ static_assert(detail::fits("DbError", DbError::kSqlite, DbError::kNotFound));
 static_assert(detail::fits("EmulatorError", EmulatorError::kBadScenario,
                            EmulatorError::kBadOption));
 static_assert(detail::fits("PlantError", PlantError::kBadArgument, PlantError::kInvalidRobot));
+static_assert(detail::fits("session::SessionError", session::SessionError::kPortOwned,
+                           session::SessionError::kOwnerReply));
 static_assert(detail::fits("fleet::FleetError", fleet::kBadRobotName, fleet::kNoCommands));
 // the wire codes are uint8 and documented up to 18 today; 1..55 fit
 static_assert(protocol_error_code(55) == 255);

@@ -156,6 +156,10 @@ class Hub {
   PhysicalState physical() const;
   // Waits for a state report newer than now.
   Result<PhysicalState> fresh_physical(double timeout_s);
+  // A fresh state report to start a motion from. Refused while the robot is not homed (its
+  // counts are then no joint angles: a board that reset, a power-up) with the firmware's own
+  // code for it (protocol_error_code(7), `not homed`), before anything is planned or sent.
+  Result<PhysicalState> motion_start(double timeout_s = 2.0);
   // Homes against the endstops; fails at once if the robot reports that homing failed. When
   // the robot was homed before, its switches measure the steps lost since (last_homing());
   // a tool offset beyond the desync threshold raises a desync alarm.

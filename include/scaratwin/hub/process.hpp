@@ -36,11 +36,22 @@ inline constexpr int kReadyFd = 3;
 // it. Fails when the descriptor is not open for writing.
 Status announce_ready(int fd, const std::string& json);
 
+// The descriptor a child started with a ready descriptor also gets as its lifeline (`--parent-fd
+// 4`): the read end of a pipe whose write end only the parent holds, so it reads the end of
+// the stream once the parent is gone, however it died (kill -9 included).
+inline constexpr int kParentFd = 4;
+
+// The child's side of the lifeline: a thread that waits on `fd` and sends this process SIGTERM
+// once it reads the end (its handler then ends the program as Ctrl-C would). No simulator or
+// emulated robot outlives the program that started it.
+void exit_with_parent_fd(int fd);
+
 class ChildProcess {
  public:
   // Starts `exe` with `args`; its stdout and stderr are read by a thread and kept (and echoed
-  // to `log` when set, with a prefix). With `ready_fd` the child also gets a pipe as
-  // descriptor 3 and `--ready-fd 3` after `args`: wait_ready() reads its ready line.
+  // to `log` when set, with a prefix). With `ready_fd` (our programs) the child also gets a pipe
+  // as descriptor 3 and `--ready-fd 3` after `args`: wait_ready() reads its ready line; and its
+  // lifeline as descriptor 4 with `--parent-fd 4`: it ends when this process does.
   static Result<std::unique_ptr<ChildProcess>> start(const std::filesystem::path& exe,
                                                      const std::vector<std::string>& args,
                                                      const std::filesystem::path& log = {},
@@ -75,7 +86,8 @@ class ChildProcess {
   int out_fd_ = -1;
   int log_fd_ = -1;
   int ready_fd_ = -1;
-  std::string ready_;  // the ready line once read
+  int lifeline_fd_ = -1;  // the write end of the child's --parent-fd
+  std::string ready_;     // the ready line once read
   std::string name_;
   std::thread thread_;
   std::mutex mu_;
@@ -101,7 +113,7 @@ Result<SimulatorReady> parse_simulator_ready(const std::string& line);
 // side channel's and the camera's ports on 127.0.0.1, its plant and whether its port resets
 // the board when opened.
 // {"program":"scaratwin-robot","pty":"/dev/pts/N","side_port":N,"camera_port":N,
-//  "plant":"as-built","auto_reset":false}
+//  "plant":"as-built","auto_reset":true}
 struct EmulatorReady {
   std::string pty;
   std::uint16_t side_port = 0;
