@@ -260,6 +260,10 @@ void AvrMachine::after_reset() {
   // some simavr versions restart the cycle counter at a reset: the emulated clock goes on
   if (avr_->cycle < reset_cycle_) avr_->cycle = reset_cycle_;
   last_reset_cycle_ = avr_->cycle;
+  // simavr's reset puts the UART's flags back to its defaults: STDIO (a console line per
+  // newline) and POLL_SLEEP (a host sleep whenever the firmware polls an empty receiver),
+  // which made an emulator three times slower after every open of its port
+  fix_simavr_defaults(avr_);
   if (profile_period_ > 0) avr_cycle_timer_register(avr_, profile_period_, profile_hook, this);
   // the UART's receiver starts disabled and empty: simavr's back-pressure starts over
   xoff_ = false;
