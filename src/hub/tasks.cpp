@@ -51,10 +51,13 @@ Result<double> grasp_yaw(const RobotModel& model, const JointVector& seed, doubl
 
 Result<ControlFigures> move_to(Hub& hub, const ToolPose& target, int samples) {
   const RobotModel& model = hub.model();
-  auto now = hub.motion_start();
+  auto now = hub.fresh_physical(2.0);
   if (!now) return now.error();
+  // the target is judged first: one out of reach is said so whatever the robot's state
   auto goal = inverse(model, target, now->q);
   if (!goal) return task_error(fmt::format("target unreachable: {}", goal.error().message));
+  now = hub.motion_start();
+  if (!now) return now.error();
   auto traj = plan_quintic(model, now->q, *goal, {samples, 0.0});
   if (!traj) return traj.error();
   hub.record_event("control",
@@ -64,7 +67,7 @@ Result<ControlFigures> move_to(Hub& hub, const ToolPose& target, int samples) {
   auto points = hub.run_trajectory(*traj);
   if (!points) return points.error();
   // let the last reports through the mirror.
-  auto phys = hub.motion_start();
+  auto phys = hub.fresh_physical(2.0);
   if (!phys) return phys.error();
   std::this_thread::sleep_for(std::chrono::milliseconds(100));
   auto sim = hub.sim_state();
@@ -81,7 +84,7 @@ Result<ControlFigures> move_to(Hub& hub, const ToolPose& target, int samples) {
 }
 
 Result<ControlFigures> move_to_position(Hub& hub, double x, double y, double z, double yaw) {
-  auto now = hub.motion_start();
+  auto now = hub.fresh_physical(2.0);
   if (!now) return now.error();
   std::string why;
   for (int k = 0; k < 24; ++k) {
