@@ -57,7 +57,7 @@ std::optional<int> on_the_owner(const LinkArgs& l, const std::string& kind,
   if (!r) return std::nullopt;
   if (*r) return kExitOk;
   std::fprintf(stderr, "scaratwin %s: %s\n", kind.c_str(), r->error().message.c_str());
-  return r->error().code == error_code(HubError::kInterrupted) ? 130 : kExitFailure;
+  return r->error().code == error_code(HubError::kInterrupted) ? kExitInterrupted : kExitFailure;
 }
 
 // A statement refused because the robot is not homed, said with what a board that resets on

@@ -15,8 +15,9 @@ namespace scaratwin::cli {
 
 // Exit codes shared by every subcommand.
 inline constexpr int kExitOk = 0;
-inline constexpr int kExitFailure = 1;  // the operation failed (unreachable, link lost, ...)
-inline constexpr int kExitUsage = 2;    // bad arguments or configuration
+inline constexpr int kExitFailure = 1;        // the operation failed (unreachable, link lost, ...)
+inline constexpr int kExitUsage = 2;          // bad arguments or configuration
+inline constexpr int kExitInterrupted = 130;  // Ctrl-C stopped the robot
 
 // Options every subcommand understands.
 struct CommonOptions {

@@ -30,7 +30,6 @@ namespace fs = std::filesystem;
 // statements in progress (Hub::interrupt(), exit status 130); a second one, or one before the
 // hubs are connected, ends the process at once. The signals are blocked in every thread and
 // taken by a watcher thread with sigtimedwait(), so the stop runs as ordinary code.
-constexpr int kExitInterrupted = 130;
 
 class InterruptWatcher {
  public:
