@@ -258,6 +258,43 @@ Eigen::Matrix4d forward_transform(const RobotModel& model, const JointVector& q)
   return t;
 }
 
+std::array<Eigen::Matrix4d, kNumJoints + 1> link_transforms(const RobotModel& model,
+                                                            const JointVector& q) {
+  // each DH row Rz(theta) Tz(d) Tx(a) Rx(alpha) splits after its joint: the URDF's joint i
+  // turns its child by Rz(theta_i + q_i) (J1: Rz(theta_1) Tz(d_1 + q_1)), and the row's rest,
+  // Tz(d_i) Tx(a_i) Rx(alpha_i), is where joint i+1 (or the tool) sits in that child
+  const auto rz = [](double theta, double d) {
+    const double c = std::cos(theta), s = std::sin(theta);
+    Eigen::Matrix4d m;
+    m << c, -s, 0, 0,  //
+        s, c, 0, 0,    //
+        0, 0, 1, d,    //
+        0, 0, 0, 1;
+    return m;
+  };
+  const auto rest = [](const DhRow& r, double d) {
+    const double c = std::cos(r.alpha_rad), s = std::sin(r.alpha_rad);
+    Eigen::Matrix4d m;
+    m << 1, 0, 0, r.a_m,  //
+        0, c, -s, 0,      //
+        0, s, c, d,       //
+        0, 0, 0, 1;
+    return m;
+  };
+  std::array<Eigen::Matrix4d, kNumJoints + 1> out;
+  Eigen::Matrix4d before = Eigen::Matrix4d::Identity();  // the previous row's rest
+  for (int i = 0; i < kNumJoints; ++i) {
+    const DhRow& r = model.dh[i];
+    const double theta = r.type == JointType::kRevolute ? r.theta_rad + q[i] : r.theta_rad;
+    const double d = r.type == JointType::kPrismatic ? r.d_m + q[i] : r.d_m;
+    // J1's d is its joint's slide; a later row's d belongs to where the next joint sits
+    out[i] = before * rz(theta, i == 0 ? d : 0.0);
+    before = rest(r, i == 0 ? 0.0 : d);
+  }
+  out[kNumJoints] = before;
+  return out;
+}
+
 ToolPose forward(const RobotModel& model, const JointVector& q) {
   const auto& dh = model.dh;
   const double p0 = dh[0].theta_rad;

@@ -338,6 +338,31 @@ TEST(Ik, WideJointTakesTheTurnNearestTheSeed) {
 }
 
 // A tool off the wrist axis (dh.j4.a) and a base turned about z (dh.j1.theta), by hand.
+TEST(Fk, LinkTransformsComposeToTheDhProduct) {
+  RobotModel m = model();
+  m.dh[0].theta_rad = 0.4;  // offsets and twists the paper's robot has not, to catch an order
+  m.dh[1].alpha_rad = 0.1;
+  m.dh[2].theta_rad = -0.2;
+  m.dh[3].a_m = 0.03;
+  std::mt19937_64 rng(11);
+  for (int i = 0; i < 200; ++i) {
+    const JointVector q = random_joints(rng);
+    for (const RobotModel* r : {&model(), static_cast<const RobotModel*>(&m)}) {
+      const auto links = link_transforms(*r, q);
+      Eigen::Matrix4d t = Eigen::Matrix4d::Identity();
+      for (const Eigen::Matrix4d& x : links) t = t * x;
+      EXPECT_LT((t - forward_transform(*r, q)).cwiseAbs().maxCoeff(), 1e-14);
+    }
+    // the elbow (link2's origin) of the paper's robot, by hand
+    const auto links = link_transforms(model(), q);
+    const Eigen::Matrix4d elbow = links[0] * links[1] * links[2];
+    EXPECT_NEAR(elbow(0, 3), 0.067 + 0.092 * std::cos(q[1]), 1e-15);
+    EXPECT_NEAR(elbow(1, 3), 0.092 * std::sin(q[1]), 1e-15);
+    EXPECT_NEAR(elbow(2, 3), q[0] - 0.017, 1e-15);
+    EXPECT_NEAR(std::atan2(elbow(1, 0), elbow(0, 0)), wrap_angle(q[1] + q[2]), 1e-14);
+  }
+}
+
 TEST(Fk, ToolOffsetAndTurnedBase) {
   RobotModel m = model();
   m.dh[0].theta_rad = kPi / 2;  // j1's link along +y

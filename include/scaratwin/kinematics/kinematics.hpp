@@ -28,6 +28,13 @@ struct ToolPose {
 // 4x4 homogeneous transform X_BT of the tool in the base (the DH product).
 Eigen::Matrix4d forward_transform(const RobotModel& model, const JointVector& q);
 
+// The links of make_urdf() (sim/mjcf.hpp), each in its parent, at joints q: [0] carriage in
+// base_link, [1] link1 in carriage, [2] link2 in link1, [3] wrist in link2, [4] tool in wrist.
+// A joint's frame turns (or slides, for the prismatic J1) with its joint; their product is
+// forward_transform(model, q).
+std::array<Eigen::Matrix4d, kNumJoints + 1> link_transforms(const RobotModel& model,
+                                                            const JointVector& q);
+
 // Tool pose from joints (closed form of the DH product for a SCARA).
 ToolPose forward(const RobotModel& model, const JointVector& q);
 
