@@ -30,7 +30,7 @@ endif()
 set(scaratwin_libs)
 foreach(name core warnings kinematics trajectory config protocol_core protocol transport
         statements vision sim_model sim sim_server plant web db analysis report script process
-        hub calibration tracker calibrate fleet_mqtt fleet mcap)
+        hub calibration tracker calibrate fleet_mqtt fleet mcap run_export)
   if(TARGET scaratwin_${name})
     set_target_properties(scaratwin_${name} PROPERTIES EXPORT_NAME ${name})
     list(APPEND scaratwin_libs scaratwin_${name})

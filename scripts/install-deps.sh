@@ -10,7 +10,7 @@ packages=(
   nlohmann-json3-dev libtomlplusplus-dev libgtest-dev libgmock-dev libbenchmark-dev
   liborocos-kdl-dev
   libmujoco-dev libqhull-dev libegl-dev libgl-dev libopengl-dev libegl-mesa0 libgl1-mesa-dri
-  libpng-dev libapriltag-dev libzstd-dev zlib1g-dev
+  libpng-dev libapriltag-dev libzstd-dev zlib1g-dev sqlite3
   gcc-avr avr-libc binutils-avr arduino-core-avr simavr libsimavr-dev libsimavrparts1 libelf-dev
   avrdude
   clang libclang-rt-14-dev

@@ -27,7 +27,8 @@ _scaratwin() {
 
   # options that take a file or a folder
   case $prev in
-    --config | --scenario | --profile | --firmware | --db | --csv | --save | --png | --json-out)
+    --config | --scenario | --profile | --firmware | --db | --csv | --save | --png | --json-out | \
+      --mcap)
       COMPREPLY=($(compgen -f -- "$cur"))
       return
       ;;

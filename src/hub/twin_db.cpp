@@ -458,6 +458,49 @@ Result<std::vector<std::pair<double, std::string>>> TwinDb::events(int64_t run) 
   return out;
 }
 
+Result<std::vector<EventRecord>> TwinDb::event_records(int64_t run) {
+  std::lock_guard<std::recursive_mutex> lock(mu_);
+  if (Status f = flush(); !f) return f.error();
+  auto s = prepare("SELECT t_s, kind, detail FROM events WHERE run = ? ORDER BY rowid");
+  if (!s) return s.error();
+  sqlite3_bind_int64(*s, 1, run);
+  std::vector<EventRecord> out;
+  while (sqlite3_step(*s) == SQLITE_ROW) {
+    out.push_back({sqlite3_column_double(*s, 0), column_text(*s, 1), column_text(*s, 2)});
+  }
+  return out;
+}
+
+Result<std::vector<CommandRecord>> TwinDb::commands(int64_t run) {
+  std::lock_guard<std::recursive_mutex> lock(mu_);
+  if (Status f = flush(); !f) return f.error();
+  auto s = prepare("SELECT t_s, link, text FROM commands WHERE run = ? ORDER BY rowid");
+  if (!s) return s.error();
+  sqlite3_bind_int64(*s, 1, run);
+  std::vector<CommandRecord> out;
+  while (sqlite3_step(*s) == SQLITE_ROW) {
+    out.push_back({sqlite3_column_double(*s, 0), column_text(*s, 1), column_text(*s, 2)});
+  }
+  return out;
+}
+
+Result<std::vector<ImageRecord>> TwinDb::images(int64_t run) {
+  std::lock_guard<std::recursive_mutex> lock(mu_);
+  if (Status f = flush(); !f) return f.error();
+  auto s = prepare("SELECT t_s, name, png FROM images WHERE run = ? ORDER BY rowid");
+  if (!s) return s.error();
+  sqlite3_bind_int64(*s, 1, run);
+  std::vector<ImageRecord> out;
+  while (sqlite3_step(*s) == SQLITE_ROW) {
+    const auto* blob = static_cast<const char*>(sqlite3_column_blob(*s, 2));
+    const int n = sqlite3_column_bytes(*s, 2);
+    out.push_back(
+        {sqlite3_column_double(*s, 0), column_text(*s, 1),
+         blob == nullptr ? std::string{} : std::string(blob, static_cast<std::size_t>(n))});
+  }
+  return out;
+}
+
 Result<int64_t> TwinDb::count(std::string_view table, int64_t run) {
   std::lock_guard<std::recursive_mutex> lock(mu_);
   static constexpr std::string_view kTables[] = {"samples",   "commands", "events",

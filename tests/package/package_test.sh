@@ -116,6 +116,8 @@ for pkg in libegl-mesa0 libgl1-mesa-dri; do # loaded by libglvnd at run time, no
 done
 dpkg-deb -f "$main_deb" Depends | grep -q libmosquitto1 ||
   fail "scaratwin does not depend on libmosquitto1 (the hub's --mqtt)"
+dpkg-deb -f "$main_deb" Depends | grep -q libzstd1 ||
+  fail "scaratwin does not depend on libzstd1 (scaratwin export --mcap)"
 dpkg-deb -f "$emu_deb" Depends | grep -q "scaratwin (= $version)" ||
   fail "scaratwin-emulator does not depend on its scaratwin"
 

@@ -62,6 +62,24 @@ struct MetricRecord {
   std::string unit;
 };
 
+struct EventRecord {
+  double t_s = 0.0;
+  std::string kind;
+  std::string detail;
+};
+
+struct CommandRecord {
+  double t_s = 0.0;
+  std::string link;  // the link it was sent on
+  std::string text;
+};
+
+struct ImageRecord {
+  double t_s = 0.0;
+  std::string name;
+  std::string png;  // the PNG file's bytes
+};
+
 // Safe to share between threads: every public member holds the database's own lock (a hub
 // records from its I/O thread while a command reads figures from the same database).
 class TwinDb {
@@ -96,6 +114,9 @@ class TwinDb {
   Result<std::vector<LatencyRecord>> latencies(int64_t run);
   Result<std::vector<MetricRecord>> metrics(int64_t run);
   Result<std::vector<std::pair<double, std::string>>> events(int64_t run);
+  Result<std::vector<EventRecord>> event_records(int64_t run);
+  Result<std::vector<CommandRecord>> commands(int64_t run);
+  Result<std::vector<ImageRecord>> images(int64_t run);
   Result<std::vector<RunInfo>> children(int64_t parent);
   Result<int64_t> count(std::string_view table, int64_t run);
 
