@@ -1,6 +1,7 @@
 #include "scaratwin/export/run_mcap.hpp"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <fstream>
 #include <iterator>
@@ -186,10 +187,13 @@ json frame_transforms(const RobotModel& model, const JointVector& q, const std::
   return {{"transforms", std::move(list)}};
 }
 
+// A message to write: its log time and where its row is (rendered as JSON only when written,
+// so that a long run's messages never sit in memory all at once).
 struct Pending {
   std::uint64_t ns = 0;
-  int topic = 0;
-  std::string data;
+  std::uint8_t topic = 0;
+  std::uint32_t run = 0;  // index into the runs' rows
+  std::uint32_t row = 0;  // index into that run's table of the topic
 };
 
 // The topics, in the order of the file's channels.
@@ -229,90 +233,127 @@ constexpr TopicSpec kTopics[kTopicCount] = {
 
 std::string num(double v) { return fmt::format("{}", v); }
 
-// Adds one run's rows to `out`.
-Status collect_run(TwinDb& db, const RobotModel& model, const RunInfo& run,
+// One run's rows, as read from the database.
+struct RunRows {
+  RunInfo info;
+  std::array<std::vector<JointRecord>, 4> samples;  // by SampleSource
+  std::vector<EventRecord> events;
+  std::vector<ImageRecord> images;
+  std::vector<LatencyRecord> latencies;
+  std::vector<double> latency_t_s;  // each latency row's time on the run's clock
+  std::vector<CommandRecord> commands;
+};
+
+// Reads one run's rows into `rows` and adds their messages (index `index`) to `out`.
+Status collect_run(TwinDb& db, const RunInfo& run, std::uint32_t index, RunRows& rows,
                    std::vector<Pending>& out) {
+  rows.info = run;
   const auto at = [&run](double t_s) { return unix_ns(run.started_unix_s, t_s); };
+  const auto add = [&out, index](std::uint64_t ns, int topic, std::size_t row) {
+    out.push_back({ns, static_cast<std::uint8_t>(topic), index, static_cast<std::uint32_t>(row)});
+  };
   std::unordered_map<std::int64_t, double> physical_t_s;  // by seq: the latencies' clock
   for (SampleSource src : {SampleSource::kPlanned, SampleSource::kVirtual, SampleSource::kPhysical,
                            SampleSource::kTruth}) {
-    auto rows = db.samples(run.id, src);
-    if (!rows) return rows.error();
+    auto got = db.samples(run.id, src);
+    if (!got) return got.error();
     const int topic = static_cast<int>(src);  // kPlannedJoints.. follow SampleSource's order
     const int tf = src == SampleSource::kPhysical  ? kPhysicalTf
                    : src == SampleSource::kVirtual ? kVirtualTf
                                                    : -1;
-    for (const JointRecord& r : *rows) {
-      const std::uint64_t ns = at(r.t_s);
-      json j = {{"run", run.id},    {"t_s", r.t_s},          {"seq", nullptr},
-                {"d1_m", r.q[0]},   {"q2_rad", r.q[1]},      {"q3_rad", r.q[2]},
-                {"q4_rad", r.q[3]}, {"grip_deg", r.grip_deg}};
-      if (r.seq >= 0) j["seq"] = r.seq;
-      out.push_back({ns, topic, j.dump()});
-      if (tf >= 0) {
-        out.push_back({ns, tf, frame_transforms(model, r.q, source_name(src), ns).dump()});
-      }
+    rows.samples[topic] = std::move(*got);
+    for (std::size_t i = 0; i < rows.samples[topic].size(); ++i) {
+      const JointRecord& r = rows.samples[topic][i];
+      add(at(r.t_s), topic, i);
+      if (tf >= 0) add(at(r.t_s), tf, i);
       if (src == SampleSource::kPhysical && r.seq >= 0) physical_t_s.emplace(r.seq, r.t_s);
     }
   }
-
   auto events = db.event_records(run.id);
   if (!events) return events.error();
-  for (const EventRecord& e : *events) {
-    const std::uint64_t ns = at(e.t_s);
-    out.push_back({ns, kEvents,
-                   json{{"timestamp", stamp(ns)},
-                        {"level", log_level(e.kind)},
-                        {"message", e.detail},
-                        {"name", e.kind},
-                        {"file", ""},
-                        {"line", 0}}
-                       .dump()});
-  }
-
+  rows.events = std::move(*events);
+  for (std::size_t i = 0; i < rows.events.size(); ++i) add(at(rows.events[i].t_s), kEvents, i);
   auto images = db.images(run.id);
   if (!images) return images.error();
-  for (const ImageRecord& im : *images) {
-    const std::uint64_t ns = at(im.t_s);
-    out.push_back({ns, kCamera,
-                   json{{"timestamp", stamp(ns)},
-                        {"frame_id", im.name},
-                        {"data", base64(im.png)},
-                        {"format", "png"}}
-                       .dump()});
-  }
+  rows.images = std::move(*images);
+  for (std::size_t i = 0; i < rows.images.size(); ++i) add(at(rows.images[i].t_s), kCamera, i);
 
   // a latency row has no t_s: its receive time is the physical sample's of the same seq, so
   // the first such pair gives the run's start on the hub's clock
   auto latencies = db.latencies(run.id);
   if (!latencies) return latencies.error();
-  std::int64_t start_us = latencies->empty() ? 0 : latencies->front().hub_rx_us;
-  for (const LatencyRecord& l : *latencies) {
+  rows.latencies = std::move(*latencies);
+  std::int64_t start_us = rows.latencies.empty() ? 0 : rows.latencies.front().hub_rx_us;
+  for (const LatencyRecord& l : rows.latencies) {
     if (auto p = physical_t_s.find(l.seq); p != physical_t_s.end()) {
       start_us = l.hub_rx_us - static_cast<std::int64_t>(std::llround(p->second * 1e6));
       break;
     }
   }
-  for (const LatencyRecord& l : *latencies) {
-    const double t_s = static_cast<double>(l.hub_rx_us - start_us) / 1e6;
-    out.push_back({at(t_s), kLatency,
-                   json{{"run", run.id},
-                        {"seq", l.seq},
-                        {"device_t_us", l.device_t_us},
-                        {"hub_rx_us", l.hub_rx_us},
-                        {"sim_apply_us", l.sim_apply_us},
-                        {"hub_to_sim_ms", static_cast<double>(l.sim_apply_us - l.hub_rx_us) / 1e3}}
-                       .dump()});
+  for (std::size_t i = 0; i < rows.latencies.size(); ++i) {
+    rows.latency_t_s.push_back(static_cast<double>(rows.latencies[i].hub_rx_us - start_us) / 1e6);
+    add(at(rows.latency_t_s.back()), kLatency, i);
   }
-
   auto commands = db.commands(run.id);
   if (!commands) return commands.error();
-  for (const CommandRecord& c : *commands) {
-    out.push_back(
-        {at(c.t_s), kCommands,
-         json{{"run", run.id}, {"t_s", c.t_s}, {"link", c.link}, {"text", c.text}}.dump()});
+  rows.commands = std::move(*commands);
+  for (std::size_t i = 0; i < rows.commands.size(); ++i) {
+    add(at(rows.commands[i].t_s), kCommands, i);
   }
   return Ok{};
+}
+
+// The JSON of one message.
+std::string render(const RobotModel& model, const RunRows& rows, const Pending& p) {
+  const std::int64_t run = rows.info.id;
+  switch (p.topic) {
+    case kPhysicalTf:
+    case kVirtualTf: {
+      const bool physical = p.topic == kPhysicalTf;
+      const JointRecord& r = rows.samples[physical ? kPhysicalJoints : kVirtualJoints][p.row];
+      return frame_transforms(model, r.q, physical ? "physical" : "virtual", p.ns).dump();
+    }
+    case kEvents: {
+      const EventRecord& e = rows.events[p.row];
+      return json{{"timestamp", stamp(p.ns)},
+                  {"level", log_level(e.kind)},
+                  {"message", e.detail},
+                  {"name", e.kind},
+                  {"file", ""},
+                  {"line", 0}}
+          .dump();
+    }
+    case kCamera: {
+      const ImageRecord& im = rows.images[p.row];
+      return json{{"timestamp", stamp(p.ns)},
+                  {"frame_id", im.name},
+                  {"data", base64(im.png)},
+                  {"format", "png"}}
+          .dump();
+    }
+    case kLatency: {
+      const LatencyRecord& l = rows.latencies[p.row];
+      return json{{"run", run},
+                  {"seq", l.seq},
+                  {"device_t_us", l.device_t_us},
+                  {"hub_rx_us", l.hub_rx_us},
+                  {"sim_apply_us", l.sim_apply_us},
+                  {"hub_to_sim_ms", static_cast<double>(l.sim_apply_us - l.hub_rx_us) / 1e3}}
+          .dump();
+    }
+    case kCommands: {
+      const CommandRecord& c = rows.commands[p.row];
+      return json{{"run", run}, {"t_s", c.t_s}, {"link", c.link}, {"text", c.text}}.dump();
+    }
+    default: {  // the joints of a source
+      const JointRecord& r = rows.samples[p.topic][p.row];
+      json j = {{"run", run},       {"t_s", r.t_s},          {"seq", nullptr},
+                {"d1_m", r.q[0]},   {"q2_rad", r.q[1]},      {"q3_rad", r.q[2]},
+                {"q4_rad", r.q[3]}, {"grip_deg", r.grip_deg}};
+      if (r.seq >= 0) j["seq"] = r.seq;
+      return j.dump();
+    }
+  }
 }
 
 std::map<std::string, std::string> run_metadata(const RunInfo& r) {
@@ -341,8 +382,11 @@ Result<McapExportSummary> export_run_mcap(TwinDb& db, const RobotModel& model, s
   }
 
   std::vector<Pending> pending;
-  for (const RunInfo& r : runs) {
-    if (Status s = collect_run(db, model, r, pending); !s) return s.error();
+  std::vector<RunRows> rows(runs.size());
+  for (std::size_t i = 0; i < runs.size(); ++i) {
+    if (Status s = collect_run(db, runs[i], static_cast<std::uint32_t>(i), rows[i], pending); !s) {
+      return s.error();
+    }
   }
   // one timeline: readers that stream the file see the messages in log time order
   std::stable_sort(pending.begin(), pending.end(),
@@ -406,7 +450,9 @@ Result<McapExportSummary> export_run_mcap(TwinDb& db, const RobotModel& model, s
     if (fresh) it->second = w.add_schema(spec.schema, "jsonschema", spec.schema_text());
     channel[t] = w.add_channel(it->second, spec.topic, "json", {{"source", spec.source}});
   }
-  for (const Pending& p : pending) w.add_message(channel[p.topic], p.ns, p.ns, p.data);
+  for (const Pending& p : pending) {
+    w.add_message(channel[p.topic], p.ns, p.ns, render(model, rows[p.run], p));
+  }
   const mcap::WriterStats stats = w.finish();
   file.close();
   if (!file) {
