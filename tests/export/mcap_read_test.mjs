@@ -1,7 +1,8 @@
 // `scaratwin export RUN --mcap FILE` read by the MCAP project's own reader (@mcap/core, zstd by
 // fzstd): a twin database recorded through TwinDb (make_run_db), exported by the real command,
 // then every topic's count and the joint values held against the database read with the
-// sqlite3 command line; and a copy cut in the middle of the data still streams up to its last
+// sqlite3 command line, the Foxglove messages held to Foxglove's own JSON schemas
+// (@foxglove/schemas); and a copy cut in the middle of the data still streams up to its last
 // whole chunk.
 //
 // Usage: node mcap_read_test.mjs --bin DIR --fixture EXE --node-modules DIR --work DIR
@@ -22,6 +23,7 @@ if (!args.bin || !args.fixture || !args['node-modules'] || !args.work) {
 const require = createRequire(path.join(path.resolve(args['node-modules']), 'noop.js'));
 const { McapIndexedReader, McapStreamReader } = require('@mcap/core');
 const fzstd = require('fzstd');
+const foxglove = require('@foxglove/schemas/jsonschema');
 const decompressHandlers = { zstd: (data, size) => fzstd.decompress(data, new Uint8Array(Number(size))) };
 
 fs.mkdirSync(args.work, { recursive: true });
@@ -190,6 +192,55 @@ for (const source of ['planned', 'virtual', 'physical', 'truth']) {
   const desync = logs.find((l) => l.name === 'desync');
   check('a desync event is a WARNING log with its detail', desync && desync.level === 3 &&
     desync.message === 'tool 3.2 mm off the plan, "quoted"');
+}
+
+// the Foxglove messages against Foxglove's own JSON schemas (@foxglove/schemas): the keywords
+// those schemas use (type, properties, required, items, oneOf/const, minimum, maximum)
+function conforms(schema, v, where = '$') {
+  if (schema.oneOf) {
+    return schema.oneOf.some((s) => !conforms(s, v, where)) ? '' : `${where}: none of oneOf`;
+  }
+  if ('const' in schema && v !== schema.const) return `${where}: not ${schema.const}`;
+  const types = { object: (x) => x !== null && typeof x === 'object' && !Array.isArray(x),
+    array: Array.isArray, string: (x) => typeof x === 'string', number: (x) => typeof x === 'number',
+    integer: Number.isInteger, boolean: (x) => typeof x === 'boolean', null: (x) => x === null };
+  if (schema.type && ![schema.type].flat().some((t) => types[t](v))) return `${where}: not ${schema.type}`;
+  if (schema.minimum !== undefined && v < schema.minimum) return `${where}: below ${schema.minimum}`;
+  if (schema.maximum !== undefined && v > schema.maximum) return `${where}: above ${schema.maximum}`;
+  for (const r of schema.required || []) if (!(r in v)) return `${where}.${r}: missing`;
+  for (const [k, sub] of Object.entries(schema.properties || {})) {
+    if (v && k in v) {
+      const e = conforms(sub, v[k], `${where}.${k}`);
+      if (e) return e;
+    }
+  }
+  if (schema.items) {
+    for (let i = 0; i < v.length; ++i) {
+      const e = conforms(schema.items, v[i], `${where}[${i}]`);
+      if (e) return e;
+    }
+  }
+  return '';
+}
+for (const [topic, name] of [['/physical/tf', 'FrameTransforms'], ['/virtual/tf', 'FrameTransforms'],
+  ['/events', 'Log'], ['/camera', 'CompressedImage']]) {
+  let error = '';
+  for (const m of byTopic.get(topic)) {
+    error = conforms(foxglove[name], decode(m));
+    if (error) break;
+  }
+  check(`${topic}: every message conforms to Foxglove's ${foxglove[name].title}`, !error, error);
+  // and the schema the file carries has Foxglove's fields and types
+  const shape = (x) => x.oneOf ? x.oneOf.map((o) => o.const) : x.items ? [shape(x.items)] :
+    x.properties ? Object.fromEntries(Object.entries(x.properties).map(([k, v]) => [k, shape(v)]))
+      : x.type;
+  const c = [...reader.channelsById.values()].find((ch) => ch.topic === topic);
+  const ours = JSON.parse(new TextDecoder().decode(reader.schemasById.get(c.schemaId).data));
+  const sorted = (x) => JSON.stringify(x, (k, v) =>
+    v && typeof v === 'object' && !Array.isArray(v) ? Object.fromEntries(Object.entries(v).sort()) : v);
+  const same = sorted(shape(ours)) === sorted(shape(foxglove[name]));
+  check(`${topic}: its schema has the fields and types of Foxglove's`, same,
+    same ? '' : `${sorted(shape(ours))} against ${sorted(shape(foxglove[name]))}`);
 }
 
 // metadata and attachments
