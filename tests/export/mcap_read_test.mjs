@@ -76,6 +76,14 @@ console.log(`(export took ${ms.toFixed(0)} ms, ${fs.statSync(out).size} bytes)`)
 const bad = spawnSync(scaratwin, ['export', '9999', '--db', db, '--mcap', `${out}.x`], { encoding: 'utf8' });
 check('an unknown run exits 2 and names it', bad.status === 2 && /no run 9999/.test(bad.stderr),
   `${bad.status} ${bad.stderr.trim()}`);
+const word = spawnSync(scaratwin, ['export', 'newest', '--db', db, '--mcap', `${out}.x`], { encoding: 'utf8' });
+check('a RUN that is neither an id nor latest exits 2', word.status === 2 && /'newest'/.test(word.stderr),
+  `${word.status} ${word.stderr.trim()}`);
+const nowhere = path.join(args.work, 'no-such-folder', 'run.mcap');
+const unwritable = spawnSync(scaratwin, ['export', 'latest', '--db', db, '--mcap', nowhere], { encoding: 'utf8' });
+check('a file that cannot be written exits 1 and names it',
+  unwritable.status === 1 && unwritable.stderr.includes(`cannot write '${nowhere}'`),
+  `${unwritable.status} ${unwritable.stderr.trim()}`);
 
 // --- the indexed reader --------------------------------------------------------------------------
 const bytes = new Uint8Array(fs.readFileSync(out));
