@@ -242,6 +242,7 @@ struct RunRows {
   std::vector<LatencyRecord> latencies;
   std::vector<double> latency_t_s;  // each latency row's time on the run's clock
   std::vector<CommandRecord> commands;
+  std::vector<MetricRecord> metrics;
 };
 
 // Reads one run's rows into `rows` and adds their messages (index `index`) to `out`.
@@ -297,6 +298,9 @@ Status collect_run(TwinDb& db, const RunInfo& run, std::uint32_t index, RunRows&
   auto commands = db.commands(run.id);
   if (!commands) return commands.error();
   rows.commands = std::move(*commands);
+  auto metrics = db.metrics(run.id);
+  if (!metrics) return metrics.error();
+  rows.metrics = std::move(*metrics);
   for (std::size_t i = 0; i < rows.commands.size(); ++i) {
     add(at(rows.commands[i].t_s), kCommands, i);
   }
@@ -414,13 +418,11 @@ Result<McapExportSummary> export_run_mcap(TwinDb& db, const RobotModel& model, s
     robot["description_file"] = options.description_file.string();
   }
   w.add_metadata("scaratwin.robot", robot);
-  for (const RunInfo& r : runs) {
-    w.add_metadata("scaratwin.run", run_metadata(r));
-    auto metrics = db.metrics(r.id);
-    if (!metrics) return metrics.error();
-    if (metrics->empty()) continue;
-    std::map<std::string, std::string> m = {{"run", std::to_string(r.id)}};
-    for (const MetricRecord& x : *metrics) m[x.name] = fmt::format("{} {}", num(x.value), x.unit);
+  for (const RunRows& r : rows) {
+    w.add_metadata("scaratwin.run", run_metadata(r.info));
+    if (r.metrics.empty()) continue;
+    std::map<std::string, std::string> m = {{"run", std::to_string(r.info.id)}};
+    for (const MetricRecord& x : r.metrics) m[x.name] = fmt::format("{} {}", num(x.value), x.unit);
     w.add_metadata("scaratwin.metrics", m);
   }
 
