@@ -18,7 +18,7 @@ packages=(
   pybind11-dev python3-dev python3-numpy python3-pytest python3-pandas python3-matplotlib
   jupyter-nbconvert python3-ipykernel
   octave octave-instrument-control
-  libmosquitto-dev mosquitto mosquitto-clients
+  libmosquitto-dev mosquitto mosquitto-clients libssl-dev openssl
 )
 
 missing=()

@@ -147,7 +147,8 @@ int main(int argc, char** argv) {
                  "section 13)");
   app.add_option("--mqtt", a.mqtt,
                  "MQTT broker whose fleet the browser UI's fleet page shows (/fleet.html), "
-                 "mqtt://[USER[:PASSWORD]@]HOST[:PORT] (docs/fleet.md)");
+                 "mqtt://[USER@]HOST[:PORT] or mqtts://[USER@]HOST[:PORT][?ca=FILE&...] (the "
+                 "password from ?password-file=FILE or $SCARATWIN_MQTT_PASSWORD; docs/fleet.md)");
   CLI11_PARSE(app, argc, argv);
 
   if (!a.config_path.empty() && !a.workcell_path.empty()) {
@@ -269,7 +270,7 @@ int main(int argc, char** argv) {
     return fail(fmt::format("--http-port {}: expected 0..65535 (0: no UI)", a.http_port));
   }
   std::unique_ptr<fleet::FleetWatcher> fleet_watch;
-  std::string fleet_broker;  // host:port, never the password
+  std::string fleet_broker;  // scheme, user, host and port, never the password
   if (!a.mqtt.empty()) {
     auto broker = fleet::parse_broker_url(a.mqtt);
     if (!broker) return fail(fmt::format("--mqtt: {}", broker.error().message));
@@ -279,7 +280,7 @@ int main(int argc, char** argv) {
     });
     if (!w) return fail(fmt::format("--mqtt: {}", w.error().message), 1);
     fleet_watch = std::move(*w);
-    fleet_broker = fmt::format("mqtt://{}:{}", broker->host, broker->port);
+    fleet_broker = fleet::broker_label(*broker);
   }
   if (a.http_port != 0) {
     web::WebOptions wo_web;

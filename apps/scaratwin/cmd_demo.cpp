@@ -219,7 +219,8 @@ void add_demo_command(CLI::App& app, CommonOptions& common, Runner& run) {
   CLI::Option* mqtt =
       cmd->add_option("--mqtt", a->mqtt,
                       "publish the robot's state on this MQTT broker, "
-                      "mqtt://[USER[:PASSWORD]@]HOST[:PORT], and show the fleet page "
+                      "mqtt://[USER@]HOST[:PORT] or mqtts://...?ca=FILE (the password from "
+                      "?password-file=FILE or $SCARATWIN_MQTT_PASSWORD), and show the fleet page "
                       "(/fleet.html); --mqtt alone starts a Mosquitto of the demo's own "
                       "(docs/fleet.md)")
           ->expected(0, 1);

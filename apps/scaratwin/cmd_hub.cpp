@@ -117,7 +117,10 @@ void add_hub_command(CLI::App& app, CommonOptions& common, Runner& run) {
       "run the hub until Ctrl-C: mirror and record continuously; with --mqtt publish the "
       "robot's state and take statements on the fleet's topics (docs/fleet.md)");
   cmd->add_option("--mqtt", a->mqtt,
-                  "MQTT broker to join, mqtt://[USER[:PASSWORD]@]HOST[:PORT] (port 1883)");
+                  "MQTT broker to join: mqtt://[USER@]HOST[:PORT] (port 1883) or, over TLS, "
+                  "mqtts://[USER@]HOST[:PORT][?ca=FILE&cert=FILE&key=FILE] (port 8883); the "
+                  "password from ?password-file=FILE or $SCARATWIN_MQTT_PASSWORD, never the URL "
+                  "(docs/fleet.md)");
   cmd->add_option("--name", a->service.name,
                   "the robot's name in the topics (default: the description's robot name)");
   cmd->add_option("--state-hz", a->service.state_hz, "state messages per second")

@@ -9,6 +9,8 @@
 #include <fmt/format.h>
 #include <nlohmann/json.hpp>
 
+#include "mqtt_client.hpp"
+
 namespace scaratwin::fleet {
 namespace {
 
@@ -20,8 +22,11 @@ constexpr int kKeepaliveS = 10;
 
 }  // namespace
 
-Result<std::unique_ptr<FleetWatcher>> FleetWatcher::start(const BrokerAddress& broker, Log log) {
-  if (broker.host.empty()) return Error{kBadUrl, "MQTT broker: no host"};
+Result<std::unique_ptr<FleetWatcher>> FleetWatcher::start(const BrokerAddress& address, Log log) {
+  if (address.host.empty()) return Error{kBadUrl, "MQTT broker: no host"};
+  auto loaded = detail::load_credentials(address);
+  if (!loaded) return loaded.error();
+  const BrokerAddress& broker = *loaded;
   static const int init = mosquitto_lib_init();
   if (init != MOSQ_ERR_SUCCESS) {
     return Error{kBadUrl, fmt::format("libmosquitto: {}", mosquitto_strerror(init))};
@@ -31,10 +36,7 @@ Result<std::unique_ptr<FleetWatcher>> FleetWatcher::start(const BrokerAddress& b
   if (w->mosq_ == nullptr) return Error{kBadUrl, "libmosquitto: cannot create a client"};
   mosquitto_int_option(w->mosq_, MOSQ_OPT_PROTOCOL_VERSION, MQTT_PROTOCOL_V311);
   mosquitto_int_option(w->mosq_, MOSQ_OPT_TCP_NODELAY, 1);
-  if (!broker.username.empty()) {
-    mosquitto_username_pw_set(w->mosq_, broker.username.c_str(),
-                              broker.password.empty() ? nullptr : broker.password.c_str());
-  }
+  if (Status s = detail::configure_client(w->mosq_, broker); !s) return s.error();
   mosquitto_connect_callback_set(w->mosq_,
                                  [](mosquitto*, void* u, int rc) { self(u)->on_connect(rc); });
   mosquitto_disconnect_callback_set(
@@ -49,9 +51,8 @@ Result<std::unique_ptr<FleetWatcher>> FleetWatcher::start(const BrokerAddress& b
   mosquitto_reconnect_delay_set(w->mosq_, 1, 5, true);
   const int rc = mosquitto_connect_async(w->mosq_, broker.host.c_str(), broker.port, kKeepaliveS);
   if (rc != MOSQ_ERR_SUCCESS && w->log_) {
-    w->log_(fmt::format("fleet: broker mqtt://{}:{}: {}; retrying", broker.host, broker.port,
-                        rc == MOSQ_ERR_ERRNO ? std::string(std::strerror(errno))
-                                             : std::string(mosquitto_strerror(rc))));
+    w->log_(fmt::format("fleet: broker {}: {}; retrying", broker_label(broker),
+                        detail::explain_failure(rc, errno, broker, false)));
   }
   const int lrc = mosquitto_loop_start(w->mosq_);
   if (lrc != MOSQ_ERR_SUCCESS) {
@@ -92,24 +93,27 @@ void FleetWatcher::on_connect(int rc) {
     (void)mosquitto_subscribe(mosq_, nullptr, (prefix + "/+/connection").c_str(), 1);
   }
   if (!say.empty() && log_) {
-    log_(fmt::format("fleet: broker mqtt://{}:{} {}", broker_.host, broker_.port, say));
+    log_(fmt::format("fleet: broker {} {}", broker_label(broker_), say));
   }
 }
 
 void FleetWatcher::on_disconnect(int rc) {
+  bool answered = false;
+  {
+    std::lock_guard<std::mutex> lock(mu_);
+    answered = connected_;
+    connected_ = false;
+  }
+  if (rc == 0) return;
+  // on the library's thread: a TLS failure is probed again here (a few seconds at most)
+  const std::string why = detail::explain_failure(rc, errno, broker_, answered);
   bool news = false;
   {
     std::lock_guard<std::mutex> lock(mu_);
-    connected_ = false;
-    if (rc != 0 && last_problem_ != "connection lost") {
-      last_problem_ = "connection lost";
-      news = true;
-    }
+    news = why != last_problem_;
+    last_problem_ = why;
   }
-  if (news && log_) {
-    log_(fmt::format("fleet: broker mqtt://{}:{} connection lost; retrying", broker_.host,
-                     broker_.port));
-  }
+  if (news && log_) log_(fmt::format("fleet: broker {}: {}; retrying", broker_label(broker_), why));
 }
 
 void FleetWatcher::on_message(std::string_view topic, std::string_view payload) {
@@ -177,7 +181,7 @@ std::map<std::string, RobotView> FleetWatcher::robots() const {
 std::string FleetWatcher::snapshot_json() const {
   const auto now = std::chrono::steady_clock::now();
   json out;
-  out["broker"] = fmt::format("mqtt://{}:{}", broker_.host, broker_.port);
+  out["broker"] = broker_label(broker_);
   json list = json::array();
   std::lock_guard<std::mutex> lock(mu_);
   out["connected"] = connected_;

@@ -29,7 +29,7 @@ Result<std::filesystem::path> find_mosquitto() {
   }
   return Error{kBadUrl,
                "no MQTT broker given and no mosquitto to start: install the Debian package "
-               "mosquitto (scripts/install-deps.sh) or give --mqtt mqtt://HOST[:PORT]"};
+               "mosquitto (scripts/install-deps.sh) or give --mqtt mqtt://HOST[:PORT] (or mqtts://)"};
 }
 
 Result<std::uint16_t> free_loopback_port() {

@@ -10,6 +10,8 @@
 
 #include <fmt/format.h>
 
+#include "mqtt_client.hpp"
+
 namespace scaratwin::fleet {
 namespace {
 
@@ -31,7 +33,12 @@ Result<std::unique_ptr<MqttBridge>> MqttBridge::start(const BridgeOptions& optio
   if (init != MOSQ_ERR_SUCCESS) {
     return Error{kBadUrl, fmt::format("libmosquitto: {}", mosquitto_strerror(init))};
   }
-  std::unique_ptr<MqttBridge> b(new MqttBridge(options, std::move(on_command), std::move(log)));
+  // the password and the TLS files are read now: a bad one is said at start, not retried
+  auto broker = detail::load_credentials(options.broker);
+  if (!broker) return broker.error();
+  BridgeOptions resolved = options;
+  resolved.broker = std::move(*broker);
+  std::unique_ptr<MqttBridge> b(new MqttBridge(resolved, std::move(on_command), std::move(log)));
   const std::string id = options.client_id.empty()
                              ? fmt::format("scaratwin-{}-{}", options.robot, getpid())
                              : options.client_id;
@@ -42,11 +49,7 @@ Result<std::unique_ptr<MqttBridge>> MqttBridge::start(const BridgeOptions& optio
   // behind the previous one until that one's (delayed) ACK, about 40 ms on Linux loopback
   mosquitto_int_option(b->mosq_, MOSQ_OPT_TCP_NODELAY, 1);
   mosquitto_threaded_set(b->mosq_, true);
-  if (!options.broker.username.empty()) {
-    (void)mosquitto_username_pw_set(
-        b->mosq_, options.broker.username.c_str(),
-        options.broker.password.empty() ? nullptr : options.broker.password.c_str());
-  }
+  if (Status s = detail::configure_client(b->mosq_, b->options_.broker); !s) return s.error();
   // a hub that dies (killed, its machine gone) reads offline: the broker publishes the will
   const int rc =
       mosquitto_will_set(b->mosq_, b->topics_.connection.c_str(), static_cast<int>(kOffline.size()),
@@ -96,7 +99,7 @@ bool MqttBridge::pause(double s) {
 }
 
 void MqttBridge::run() {
-  const std::string where = fmt::format("mqtt://{}:{}", options_.broker.host, options_.broker.port);
+  const std::string where = broker_label(options_.broker);
   double backoff_s = options_.retry_min_s;
   bool first = true;
   bool socket_open = false;
@@ -124,18 +127,16 @@ void MqttBridge::run() {
                                                options_.broker.port, options_.keepalive_s)
                            : mosquitto_reconnect(mosq_);
       if (rc != MOSQ_ERR_SUCCESS) {
-        failed(rc == MOSQ_ERR_ERRNO ? std::string(std::strerror(errno))
-                                    : std::string(mosquitto_strerror(rc)));
+        failed(detail::explain_failure(rc, errno, options_.broker, false));
         continue;
       }
       first = false;
       socket_open = true;
+      answered_ = false;
     }
     const int rc = mosquitto_loop(mosq_, 100, 1);
     if (rc != MOSQ_ERR_SUCCESS) {
-      failed(rc == MOSQ_ERR_CONN_LOST || rc == MOSQ_ERR_NO_CONN
-                 ? std::string("connection lost")
-                 : std::string(mosquitto_strerror(rc)));
+      failed(detail::explain_failure(rc, errno, options_.broker, answered_.load()));
       continue;
     }
     if (connected_) backoff_s = options_.retry_min_s;
@@ -156,13 +157,14 @@ void MqttBridge::run() {
 }
 
 void MqttBridge::on_connect(int rc) {
+  answered_ = true;
   if (rc != 0) {
     // refused (bad credentials, protocol, server unavailable): the broker closes the socket
     // and the loop retries with back-off
     std::lock_guard<std::mutex> lock(mu_);
     const std::string why = fmt::format("refused the connection: {}", mosquitto_connack_string(rc));
     if (why != last_problem_ && log_) {
-      log_(fmt::format("broker mqtt://{}:{} {}", options_.broker.host, options_.broker.port, why));
+      log_(fmt::format("broker {} {}", broker_label(options_.broker), why));
     }
     last_problem_ = why;
     return;
@@ -176,8 +178,9 @@ void MqttBridge::on_connect(int rc) {
     last_problem_.clear();
   }
   connected_ = true;
-  say(fmt::format("broker mqtt://{}:{}: connected; robot '{}' on {}/{}/", options_.broker.host,
-                  options_.broker.port, options_.robot, kTopicPrefix, options_.robot));
+  say(fmt::format("broker {}: connected{}; robot '{}' on {}/{}/", broker_label(options_.broker),
+                  options_.broker.tls ? " over TLS" : "", options_.robot, kTopicPrefix,
+                  options_.robot));
 }
 
 void MqttBridge::on_disconnect(int /*rc*/) { connected_ = false; }

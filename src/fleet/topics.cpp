@@ -31,21 +31,42 @@ RobotTopics robot_topics(std::string_view name) {
 }
 
 Result<BrokerAddress> parse_broker_url(std::string_view url) {
-  constexpr std::string_view kScheme = "mqtt://";
+  constexpr std::string_view kPlain = "mqtt://";
+  constexpr std::string_view kTls = "mqtts://";
   const auto bad = [&](std::string_view why) {
-    return Error{
-        kBadUrl,
-        fmt::format("--mqtt '{}': {} (expected mqtt://[USER[:PASSWORD]@]HOST[:PORT])", url, why)};
+    return Error{kBadUrl, fmt::format("--mqtt '{}': {} (expected mqtt://[USER@]HOST[:PORT] or "
+                                      "mqtts://[USER@]HOST[:PORT][?ca=FILE&cert=FILE&key=FILE])",
+                                      url, why)};
   };
-  if (url.substr(0, kScheme.size()) != kScheme) return bad("not an mqtt:// address");
-  std::string_view rest = url.substr(kScheme.size());
-  if (!rest.empty() && rest.back() == '/') rest.remove_suffix(1);
   BrokerAddress a;
+  std::string_view rest;
+  if (url.substr(0, kTls.size()) == kTls) {
+    a.tls = true;
+    a.port = 8883;
+    rest = url.substr(kTls.size());
+  } else if (url.substr(0, kPlain.size()) == kPlain) {
+    rest = url.substr(kPlain.size());
+  } else {
+    return bad("not an mqtt:// or mqtts:// address");
+  }
+  std::string_view query;
+  if (const size_t q = rest.find('?'); q != std::string_view::npos) {
+    query = rest.substr(q + 1);
+    rest = rest.substr(0, q);
+  }
+  if (!rest.empty() && rest.back() == '/') rest.remove_suffix(1);
   if (const size_t at = rest.rfind('@'); at != std::string_view::npos) {
     const std::string_view user = rest.substr(0, at);
-    const size_t colon = user.find(':');
-    a.username = std::string(user.substr(0, colon));
-    if (colon != std::string_view::npos) a.password = std::string(user.substr(colon + 1));
+    if (user.find(':') != std::string_view::npos) {
+      // refused without echoing the URL: it holds the password
+      return Error{kBadUrl,
+                   fmt::format("--mqtt: the URL holds a password, which every user of this "
+                               "machine can read in the process list (ps); give the user alone "
+                               "in the URL and the password in a file (?password-file=FILE, "
+                               "readable by you only) or in the environment variable {}",
+                               kPasswordEnv)};
+    }
+    a.username = std::string(user);
     if (a.username.empty()) return bad("an empty user name before '@'");
     rest = rest.substr(at + 1);
   }
@@ -62,9 +83,41 @@ Result<BrokerAddress> parse_broker_url(std::string_view url) {
     rest = rest.substr(0, colon);
   }
   if (rest.empty()) return bad("no host");
-  if (rest.find_first_of("/?#") != std::string_view::npos) return bad("a path after the host");
+  if (rest.find_first_of("/#") != std::string_view::npos) return bad("a path after the host");
   a.host = std::string(rest);
+  while (!query.empty()) {
+    const size_t amp = query.find('&');
+    const std::string_view item = query.substr(0, amp);
+    query = amp == std::string_view::npos ? std::string_view{} : query.substr(amp + 1);
+    if (item.empty()) continue;
+    const size_t eq = item.find('=');
+    const std::string_view key = item.substr(0, eq);
+    const std::string value(eq == std::string_view::npos ? std::string_view{}
+                                                         : item.substr(eq + 1));
+    if (value.empty()) return bad(fmt::format("'{}' without a file", key));
+    if (key == "password-file") {
+      a.password_file = value;
+      continue;
+    }
+    std::string* file = key == "ca"     ? &a.ca_file
+                        : key == "cert" ? &a.cert_file
+                        : key == "key"  ? &a.key_file
+                                        : nullptr;
+    if (file == nullptr) {
+      return bad(fmt::format("unknown option '{}' (known: ca, cert, key, password-file)", key));
+    }
+    if (!a.tls) return bad(fmt::format("'{}' is a TLS option: use mqtts://", key));
+    *file = value;
+  }
+  if (a.cert_file.empty() != a.key_file.empty()) {
+    return bad("a client certificate needs both cert= and key=");
+  }
   return a;
+}
+
+std::string broker_label(const BrokerAddress& a) {
+  return fmt::format("{}://{}{}{}:{}", a.tls ? "mqtts" : "mqtt", a.username,
+                     a.username.empty() ? "" : "@", a.host, a.port);
 }
 
 Result<Command> parse_command(std::string_view payload, std::string_view robot,

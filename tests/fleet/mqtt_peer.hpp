@@ -42,12 +42,23 @@ struct Message {
   bool retain = false;
 };
 
+// How a Peer reaches a broker that asks more than a plain connection: TLS with `ca`, a user.
+struct PeerAuth {
+  std::string host = "127.0.0.1";
+  std::string ca, user, password;
+};
+
 // An MQTT client that subscribes to `filter` and keeps what arrives.
 class Peer {
  public:
-  Peer(int port, const std::string& filter) {
+  Peer(int port, const std::string& filter, const PeerAuth& auth = {}) {
     mosquitto_lib_init();
     m_ = mosquitto_new(nullptr, true, this);
+    if (!auth.ca.empty())
+      mosquitto_tls_set(m_, auth.ca.c_str(), nullptr, nullptr, nullptr, nullptr);
+    if (!auth.user.empty()) {
+      mosquitto_username_pw_set(m_, auth.user.c_str(), auth.password.c_str());
+    }
     mosquitto_message_callback_set(m_, [](mosquitto*, void* u, const mosquitto_message* msg) {
       auto* self = static_cast<Peer*>(u);
       std::lock_guard<std::mutex> lock(self->mu_);
@@ -61,7 +72,7 @@ class Peer {
     mosquitto_connect_callback_set(m_, [](mosquitto* m, void* u, int rc) {
       if (rc == 0) mosquitto_subscribe(m, nullptr, static_cast<Peer*>(u)->filter_.c_str(), 1);
     });
-    ok_ = mosquitto_connect(m_, "127.0.0.1", port, 10) == MOSQ_ERR_SUCCESS &&
+    ok_ = mosquitto_connect(m_, auth.host.c_str(), port, 10) == MOSQ_ERR_SUCCESS &&
           mosquitto_loop_start(m_) == MOSQ_ERR_SUCCESS;
   }
   ~Peer() {

@@ -12,6 +12,8 @@
 #include <chrono>
 #include <cstdint>
 #include <filesystem>
+#include <fstream>
+#include <iterator>
 #include <sstream>
 #include <thread>
 
@@ -22,6 +24,7 @@
 #include "mqtt_peer.hpp"
 #include "scaratwin/hub/process.hpp"
 #include "scaratwin/hub/twin_db.hpp"
+#include "tls_lab.hpp"
 
 namespace scaratwin {
 namespace {
@@ -121,10 +124,9 @@ struct Rig {
             "--sim",    "127.0.0.1:" + sim_port,
             "--db",     (dir / "twin.db").string()};
   }
-  void start_hub(const std::string& name) {
-    std::vector<std::string> args{
-        "hub",        "--mqtt", fmt::format("mqtt://127.0.0.1:{}", broker_port), "--name", name,
-        "--state-hz", "20"};
+  void start_hub(const std::string& name, std::string url = "") {
+    if (url.empty()) url = fmt::format("mqtt://127.0.0.1:{}", broker_port);
+    std::vector<std::string> args{"hub", "--mqtt", url, "--name", name, "--state-hz", "20"};
     for (const std::string& a : links()) args.push_back(a);
     auto h = ChildProcess::start(kBin / "scaratwin", args, dir / "hub.log");
     ASSERT_TRUE(h) << h.error().message;
@@ -326,6 +328,78 @@ TEST(FleetHub, ServesItsRobotOnTheBrokerAndOnlyIts) {
   EXPECT_TRUE(late.wait(
       "scaratwin/v1/r1/connection", [](const Message& m) { return m.payload == "offline"; }, 10s,
       mark));
+}
+
+// What a process shows to every user of the machine (ps): its arguments.
+std::string command_line(pid_t pid) {
+  std::ifstream in(fmt::format("/proc/{}/cmdline", pid));
+  std::string s((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  for (char& c : s) c = c == '\0' ? ' ' : c;
+  return s;
+}
+
+// The fleet over TLS with the password out of every command line (docs/fleet.md, "A broker
+// over TLS"): a hub with the wrong CA moves nothing, whatever is published on its robot's
+// topic; one with the right CA and the password in a file is driven; and a simulator's fleet
+// page watches the same broker over TLS. Judged by the emulator's truth and /proc.
+TEST(FleetHub, OverTlsTheRightCaDrivesTheRobotAWrongOneMovesNothing) {
+  Rig rig;
+  ASSERT_NO_FATAL_FAILURE(rig.start(fresh_dir("fleet-tls")));
+  Truth truth(rig.side_port);
+  auto made = test::start_tls_lab(rig.dir / "tls", kBroker, SCARATWIN_MOSQUITTO_PASSWD);
+  ASSERT_TRUE(made) << made.error().message;
+  test::TlsLab& lab = *made;
+  test::PeerAuth auth;
+  auth.host = "localhost";
+  auth.ca = lab.ca.string();
+  auth.user = lab.user;
+  auth.password = lab.password;
+  Peer peer(lab.port_ok, "scaratwin/v1/#", auth);
+  ASSERT_TRUE(peer.ok());
+  const std::string base = fmt::format("mqtts://{}@localhost:{}", lab.user, lab.port_ok);
+
+  // the wrong CA, the password from the environment: refused, said, and nothing moves
+  ::setenv("SCARATWIN_MQTT_PASSWORD", lab.password.c_str(), 1);
+  ASSERT_NO_FATAL_FAILURE(rig.start_hub("tls", base + "?ca=" + lab.other_ca.string()));
+  ::unsetenv("SCARATWIN_MQTT_PASSWORD");
+  auto said = rig.hub->wait_for_line("TLS: the broker's certificate is refused", 20s);
+  ASSERT_TRUE(said) << rig.hub->output_tail();
+  EXPECT_EQ(command_line(rig.hub->pid()).find(lab.password), std::string::npos);
+  const auto at_start = truth.motors();
+  ASSERT_TRUE(
+      peer.publish("scaratwin/v1/tls/command", json{{"id", "h0"}, {"statement", "home"}}.dump()));
+  std::this_thread::sleep_for(3s);
+  EXPECT_EQ(truth.motors(), at_start) << "a hub refused by TLS runs nothing";
+  EXPECT_FALSE(peer.wait(
+      "scaratwin/v1/tls/reply", [](const Message&) { return true; }, 100ms));
+  EXPECT_EQ(rig.hub->stop(10s), 130);
+
+  // the right CA, the password in a file named by the URL
+  const std::string good =
+      fmt::format("{}?ca={}&password-file={}", base, lab.ca.string(), lab.password_file.string());
+  ASSERT_NO_FATAL_FAILURE(rig.start_hub("tls", good));
+  auto connected = rig.hub->wait_for_line("connected over TLS", 20s);
+  ASSERT_TRUE(connected) << rig.hub->output_tail();
+  ASSERT_TRUE(peer.wait(
+      "scaratwin/v1/tls/connection", [](const Message& m) { return m.payload == "online"; }, 20s));
+  const std::string shown = command_line(rig.hub->pid());
+  EXPECT_NE(shown.find(lab.password_file.string()), std::string::npos) << shown;
+  EXPECT_EQ(shown.find(lab.password), std::string::npos) << shown;
+  const json home = command(peer, "tls", "h1", "home");
+  ASSERT_EQ(home.value("ok", false), true) << home.dump() << rig.hub->output_tail();
+  const json move = command(peer, "tls", "m1", "movej 0.10 0 0 0");
+  ASSERT_EQ(move.value("ok", false), true) << move.dump();
+  EXPECT_NEAR(static_cast<double>(truth.get("z")), 0.10 * kZStepsPerM, 200.0);
+
+  // the fleet page's watcher over TLS: connected, and its arguments hold no password either
+  auto sim = ChildProcess::start(kBin / "scaratwin-sim",
+                                 {"--port", "0", "--http-port", "0", "--no-camera", "--mqtt", good},
+                                 rig.dir / "sim2.log");
+  ASSERT_TRUE(sim) << sim.error().message;
+  auto watching = (*sim)->wait_for_line(
+      fmt::format("fleet: broker mqtts://{}@localhost:{} connected", lab.user, lab.port_ok), 60s);
+  EXPECT_TRUE(watching) << (*sim)->output_tail();
+  EXPECT_EQ(command_line((*sim)->pid()).find(lab.password), std::string::npos);
 }
 
 // One hub drives every robot of a workcell (docs/workcell.md, "The hub's robot interface"):

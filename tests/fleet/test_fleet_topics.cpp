@@ -1,5 +1,6 @@
 // The fleet's topic layout and payloads (fleet/topics.hpp): names, broker addresses and the
 // command checks that stand between a broker and the robot.
+#include <fmt/format.h>
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
 
@@ -41,22 +42,78 @@ TEST(FleetTopics, BrokerUrls) {
   ASSERT_TRUE(b);
   EXPECT_EQ(b->host, "10.0.0.2");
   EXPECT_EQ(b->port, 18830);
-  EXPECT_EQ(
-      parse_broker_url("tcp://x:1").error().message,
-      "--mqtt 'tcp://x:1': not an mqtt:// address (expected mqtt://[USER[:PASSWORD]@]HOST[:PORT])");
+  EXPECT_FALSE(b->tls);
+  constexpr const char* kExpected =
+      "(expected mqtt://[USER@]HOST[:PORT] or "
+      "mqtts://[USER@]HOST[:PORT][?ca=FILE&cert=FILE&key=FILE])";
+  EXPECT_EQ(parse_broker_url("tcp://x:1").error().message,
+            fmt::format("--mqtt 'tcp://x:1': not an mqtt:// or mqtts:// address {}", kExpected));
   EXPECT_EQ(parse_broker_url("mqtt://x:0").error().message,
-            "--mqtt 'mqtt://x:0': port '0' is not 1..65535 (expected "
-            "mqtt://[USER[:PASSWORD]@]HOST[:PORT])");
-  auto c = parse_broker_url("mqtt://hub:s3cret@rabbit.lab:1884");
+            fmt::format("--mqtt 'mqtt://x:0': port '0' is not 1..65535 {}", kExpected));
+  auto c = parse_broker_url("mqtt://hub@rabbit.lab:1884?password-file=/run/pw");
   ASSERT_TRUE(c);
   EXPECT_EQ(c->username, "hub");
-  EXPECT_EQ(c->password, "s3cret");
+  EXPECT_EQ(c->password, "");
+  EXPECT_EQ(c->password_file, "/run/pw");
   EXPECT_EQ(c->host, "rabbit.lab");
   EXPECT_EQ(c->port, 1884);
+  EXPECT_EQ(broker_label(*c), "mqtt://hub@rabbit.lab:1884");
   EXPECT_FALSE(parse_broker_url("mqtt://@x"));
   EXPECT_FALSE(parse_broker_url("mqtt://:1883"));
   EXPECT_FALSE(parse_broker_url("mqtt://x:99999"));
   EXPECT_FALSE(parse_broker_url("mqtt://x/path"));
+}
+
+// docs/security.md: a password never travels in a process's arguments, so the URL refuses
+// one, and says where to put it; the refusal does not repeat it
+TEST(FleetTopics, APasswordInTheUrlIsRefusedWithTheWayToGiveIt) {
+  for (const char* url :
+       {"mqtt://hub:s3cret@rabbit.lab:1884", "mqtts://hub:s3cret@lab", "mqtts://hub:@lab"}) {
+    auto r = parse_broker_url(url);
+    ASSERT_FALSE(r) << url;
+    EXPECT_EQ(r.error().code, kBadUrl);
+    EXPECT_EQ(r.error().message,
+              "--mqtt: the URL holds a password, which every user of this machine can read in "
+              "the process list (ps); give the user alone in the URL and the password in a file "
+              "(?password-file=FILE, readable by you only) or in the environment variable "
+              "SCARATWIN_MQTT_PASSWORD");
+    EXPECT_EQ(r.error().message.find("s3cret"), std::string::npos);
+  }
+}
+
+TEST(FleetTopics, TlsUrls) {
+  auto a = parse_broker_url("mqtts://broker.lab");
+  ASSERT_TRUE(a);
+  EXPECT_TRUE(a->tls);
+  EXPECT_EQ(a->port, 8883);  // MQTT over TLS's registered port
+  EXPECT_EQ(a->ca_file, "");
+  EXPECT_EQ(broker_label(*a), "mqtts://broker.lab:8883");
+  auto b = parse_broker_url(
+      "mqtts://cell-3@broker.lab:18883/?ca=/etc/lab/ca.crt&cert=/etc/lab/c.crt&key=/etc/lab/"
+      "c.key&password-file=/run/pw");
+  ASSERT_TRUE(b) << b.error().message;
+  EXPECT_EQ(b->host, "broker.lab");
+  EXPECT_EQ(b->port, 18883);
+  EXPECT_EQ(b->username, "cell-3");
+  EXPECT_EQ(b->ca_file, "/etc/lab/ca.crt");
+  EXPECT_EQ(b->cert_file, "/etc/lab/c.crt");
+  EXPECT_EQ(b->key_file, "/etc/lab/c.key");
+  EXPECT_EQ(b->password_file, "/run/pw");
+  const auto refused = [](const char* url) {
+    auto r = parse_broker_url(url);
+    return r ? std::string("accepted") : r.error().message;
+  };
+  EXPECT_EQ(refused("mqtt://x?ca=/ca.crt").substr(0, 58),
+            "--mqtt 'mqtt://x?ca=/ca.crt': 'ca' is a TLS option: use mq");
+  EXPECT_NE(refused("mqtts://x?cert=/c.crt")
+                .find("a client certificate needs both cert= and "
+                      "key="),
+            std::string::npos);
+  EXPECT_NE(refused("mqtts://x?key=/c.key").find("needs both"), std::string::npos);
+  EXPECT_NE(refused("mqtts://x?cafile=/ca.crt")
+                .find("unknown option 'cafile' (known: ca, cert, key, password-file)"),
+            std::string::npos);
+  EXPECT_NE(refused("mqtts://x?ca=").find("'ca' without a file"), std::string::npos);
 }
 
 TEST(FleetTopics, CommandsAreCheckedBeforeAnythingRuns) {
@@ -105,7 +162,9 @@ TEST(FleetTopics, RepliesEchoTheId) {
 // port where none listens, so it only retries in the background).
 TEST(FleetWatch, KeepsEachRobotsLastStateAndConnectionAndNothingElse) {
   using scaratwin::fleet::FleetWatcher;
-  scaratwin::fleet::BrokerAddress nowhere{"127.0.0.1", 1, "", ""};
+  scaratwin::fleet::BrokerAddress nowhere;
+  nowhere.host = "127.0.0.1";
+  nowhere.port = 1;
   auto w = FleetWatcher::start(nowhere, {});
   ASSERT_TRUE(w) << w.error().message;
   FleetWatcher& f = **w;
@@ -147,12 +206,15 @@ TEST(FleetWatch, KeepsEachRobotsLastStateAndConnectionAndNothingElse) {
 
 TEST(FleetWatch, AStrangerCannotGrowItBeyondItsRobotCap) {
   using scaratwin::fleet::FleetWatcher;
-  auto w = FleetWatcher::start({"127.0.0.1", 1, "", ""}, {});
+  scaratwin::fleet::BrokerAddress nowhere;
+  nowhere.host = "127.0.0.1";
+  nowhere.port = 1;
+  auto w = FleetWatcher::start(nowhere, {});
   ASSERT_TRUE(w) << w.error().message;
   for (std::size_t i = 0; i < scaratwin::fleet::kMaxWatchedRobots + 5; ++i) {
     (*w)->on_message("scaratwin/v1/r" + std::to_string(i) + "/connection", "online");
   }
   EXPECT_EQ((*w)->robots().size(), scaratwin::fleet::kMaxWatchedRobots);
   EXPECT_EQ((*w)->counters().ignored, 5u);
-  EXPECT_FALSE(FleetWatcher::start({"", 1883, "", ""}, {}));  // no host
+  EXPECT_FALSE(FleetWatcher::start(scaratwin::fleet::BrokerAddress{}, {}));  // no host
 }

@@ -87,6 +87,7 @@ class MqttBridge {
   Log log_;
   mosquitto* mosq_ = nullptr;
   std::atomic<bool> connected_{false};
+  std::atomic<bool> answered_{false};  // a CONNACK came on the current connection
   std::atomic<bool> stop_{false};
   mutable std::mutex mu_;  // counters_, and the waits of pause()
   std::condition_variable cv_;

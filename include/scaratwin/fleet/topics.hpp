@@ -37,13 +37,27 @@ Status check_robot_name(std::string_view name);
 // The topics of robot `name` (a name check_robot_name accepts).
 RobotTopics robot_topics(std::string_view name);
 
-// mqtt://[USER[:PASSWORD]@]HOST[:PORT] (port 1883 by default; no user: anonymous).
+// A broker's address: mqtt://[USER@]HOST[:PORT] (plain, port 1883 by default) or
+// mqtts://[USER@]HOST[:PORT][?ca=FILE&cert=FILE&key=FILE&password-file=FILE] (TLS, port 8883 by
+// default; the broker's certificate is checked against `ca` (else the system's CAs) and
+// against HOST; `cert` and `key` are a client certificate, given together). No user: anonymous.
+// A password is never part of the address: a process's arguments are visible to every user of
+// the machine (ps), so the URL refuses one; it comes from `password-file` (either scheme) or
+// from the environment (kPasswordEnv), read by fleet/mqtt_client.hpp when the client starts.
+inline constexpr std::string_view kPasswordEnv = "SCARATWIN_MQTT_PASSWORD";
+inline constexpr std::string_view kUsernameEnv = "SCARATWIN_MQTT_USERNAME";
 struct BrokerAddress {
   std::string host;
   std::uint16_t port = 1883;
-  std::string username, password;
+  std::string username;
+  std::string password;       // filled from password_file or the environment, never the URL
+  std::string password_file;  // as given in the URL
+  std::string ca_file, cert_file, key_file;
+  bool tls = false;  // mqtts://
 };
 Result<BrokerAddress> parse_broker_url(std::string_view url);
+// The address as printed to the user: scheme, user, host and port (never a password).
+std::string broker_label(const BrokerAddress& a);
 
 // A command as it arrived: the id is echoed in the reply as it was sent (a JSON string or
 // number, kept as its JSON text).
