@@ -151,6 +151,14 @@ trap - EXIT
 if [[ "${SCARATWIN_TEST_TSAN:-1}" != 0 ]]; then
   tsan_suites='LineSplitter|Tcp|IoThread|Serial|SequenceTracker|LinkCounters|Statements|Channel'
   tsan_suites+='|WebServer|HttpTest|Feed|Commands|FakeRobotTest|FakeRobotHub|HubRobots|TwinDbThreads'
+  # as for the suites: the count may not fall below the floor kept in the repository
+  tsan_registered=$(ctest --preset tsan -N -R "^(${tsan_suites})\\." | sed -n 's/^Total Tests: //p')
+  tsan_floor=$(grep -v '^#' tests/minimum_tsan_test_count | tr -d '[:space:]')
+  if [[ -z "$tsan_registered" || "$tsan_registered" -lt "$tsan_floor" ]]; then
+    failures+=("ThreadSanitizer: ${tsan_registered:-no} tests registered, fewer than the\
+ ${tsan_floor} of tests/minimum_tsan_test_count (a suite dropped out of the tsan build)")
+  fi
+  echo "ThreadSanitizer tests registered: ${tsan_registered:-0} (floor $tsan_floor)"
   if ! ctest --preset tsan --no-tests=error -j "$jobs" -R "^(${tsan_suites})\\."; then
     failed_list=$(failed_tests build/tsan)
     save_failed_output build/tsan

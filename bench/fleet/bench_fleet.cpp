@@ -270,7 +270,7 @@ int main(int argc, char** argv) {
       return 2;
     }
   }
-  mosquitto_lib_init();
+  (void)fleet::init_mqtt_library();
   std::unique_ptr<scaratwin::ChildProcess> broker;
   fleet::BrokerAddress address;
   pid_t broker_pid = 0;

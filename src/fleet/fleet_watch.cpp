@@ -10,6 +10,7 @@
 #include <nlohmann/json.hpp>
 
 #include "mqtt_client.hpp"
+#include "scaratwin/fleet/mqtt_bridge.hpp"
 
 namespace scaratwin::fleet {
 namespace {
@@ -27,10 +28,7 @@ Result<std::unique_ptr<FleetWatcher>> FleetWatcher::start(const BrokerAddress& a
   auto loaded = detail::load_credentials(address);
   if (!loaded) return loaded.error();
   const BrokerAddress& broker = *loaded;
-  static const int init = mosquitto_lib_init();
-  if (init != MOSQ_ERR_SUCCESS) {
-    return Error{kBadUrl, fmt::format("libmosquitto: {}", mosquitto_strerror(init))};
-  }
+  if (Status s = init_mqtt_library(); !s) return s.error();
   std::unique_ptr<FleetWatcher> w(new FleetWatcher(broker, std::move(log)));
   w->mosq_ = mosquitto_new(nullptr, true, w.get());
   if (w->mosq_ == nullptr) return Error{kBadUrl, "libmosquitto: cannot create a client"};

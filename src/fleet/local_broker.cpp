@@ -27,9 +27,10 @@ Result<std::filesystem::path> find_mosquitto() {
     const std::filesystem::path p = std::filesystem::path(d) / "mosquitto";
     if (::access(p.c_str(), X_OK) == 0) return p;
   }
-  return Error{kBadUrl,
-               "no MQTT broker given and no mosquitto to start: install the Debian package "
-               "mosquitto (scripts/install-deps.sh) or give --mqtt mqtt://HOST[:PORT] (or mqtts://)"};
+  return Error{
+      kBadUrl,
+      "no MQTT broker given and no mosquitto to start: install the Debian package "
+      "mosquitto (scripts/install-deps.sh) or give --mqtt mqtt://HOST[:PORT] (or mqtts://)"};
 }
 
 Result<std::uint16_t> free_loopback_port() {

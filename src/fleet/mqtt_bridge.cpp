@@ -29,10 +29,7 @@ Result<std::unique_ptr<MqttBridge>> MqttBridge::start(const BridgeOptions& optio
   if (options.keepalive_s < 5) {
     return Error{kBadUrl, fmt::format("MQTT keep-alive {} s: at least 5 s", options.keepalive_s)};
   }
-  static const int init = mosquitto_lib_init();
-  if (init != MOSQ_ERR_SUCCESS) {
-    return Error{kBadUrl, fmt::format("libmosquitto: {}", mosquitto_strerror(init))};
-  }
+  if (Status s = init_mqtt_library(); !s) return s.error();
   // the password and the TLS files are read now: a bad one is said at start, not retried
   auto broker = detail::load_credentials(options.broker);
   if (!broker) return broker.error();

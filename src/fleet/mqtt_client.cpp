@@ -1,5 +1,7 @@
 #include "mqtt_client.hpp"
 
+#include "scaratwin/fleet/mqtt_bridge.hpp"
+
 #include <arpa/inet.h>
 #include <mosquitto.h>
 #include <netdb.h>
@@ -125,6 +127,22 @@ std::string probe_tls(const BrokerAddress& a) {
 const char* nullify(const std::string& s) { return s.empty() ? nullptr : s.c_str(); }
 
 }  // namespace
+
+}  // namespace scaratwin::fleet::detail
+
+namespace scaratwin::fleet {
+
+Status init_mqtt_library() {
+  static const int rc = mosquitto_lib_init();
+  if (rc != MOSQ_ERR_SUCCESS) {
+    return Error{kBadUrl, fmt::format("libmosquitto: {}", mosquitto_strerror(rc))};
+  }
+  return Ok{};
+}
+
+}  // namespace scaratwin::fleet
+
+namespace scaratwin::fleet::detail {
 
 Result<BrokerAddress> load_credentials(BrokerAddress a) {
   if (a.username.empty()) {

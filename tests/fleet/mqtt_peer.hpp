@@ -17,6 +17,7 @@
 #include <fmt/format.h>
 
 #include "scaratwin/fleet/local_broker.hpp"
+#include "scaratwin/fleet/mqtt_bridge.hpp"
 #include "scaratwin/hub/process.hpp"
 
 namespace scaratwin::test {
@@ -52,7 +53,7 @@ struct PeerAuth {
 class Peer {
  public:
   Peer(int port, const std::string& filter, const PeerAuth& auth = {}) {
-    mosquitto_lib_init();
+    (void)fleet::init_mqtt_library();
     m_ = mosquitto_new(nullptr, true, this);
     if (!auth.ca.empty())
       mosquitto_tls_set(m_, auth.ca.c_str(), nullptr, nullptr, nullptr, nullptr);

@@ -254,8 +254,14 @@ TEST(FleetHub, ServesItsRobotOnTheBrokerAndOnlyIts) {
   EXPECT_EQ(parse(*long_reply)["ok"], false);
   EXPECT_NE(parse(*long_reply).value("error", "").find("interrupted"), std::string::npos)
       << long_reply->payload;
+  // at rest: no step over 300 ms of the emulated robot's own clock, which advanced (a stalled
+  // emulator keeps still too)
   const auto z_stop = truth.get("z");
-  std::this_thread::sleep_for(300ms);
+  const auto sim_from = truth.get("sim_us");
+  for (int i = 0; i < 500 && truth.get("sim_us") < sim_from + 300000; ++i) {
+    std::this_thread::sleep_for(20ms);
+  }
+  ASSERT_GE(truth.get("sim_us"), sim_from + 300000) << "the emulated robot's clock advanced";
   EXPECT_EQ(truth.get("z"), z_stop) << "the robot is at rest";
   EXPECT_GT(z_stop, z_at(0.02) + 2000) << "stopped on its way, not at the end of the move";
 
@@ -267,6 +273,49 @@ TEST(FleetHub, ServesItsRobotOnTheBrokerAndOnlyIts) {
   const json parse_error = command(peer, "r1", "bad2", "move 0.2 0");
   EXPECT_EQ(parse_error.value("ok", true), false);
   EXPECT_EQ(parse_error.value("error", ""), cli_parse_error);
+
+  // docs/fleet.md's refusals, each with its documented words: a retained command; `shoot
+  // FILE`; the ninth command waiting behind a running one (the queue holds 8)
+  {
+    std::size_t m0 = peer.count();
+    ASSERT_TRUE(peer.publish("scaratwin/v1/r1/command",
+                             json{{"id", "ret"}, {"statement", "wait 0"}}.dump(), true));
+    auto ret = peer.wait(
+        "scaratwin/v1/r1/reply", [](const Message& m) { return parse(m)["id"] == "ret"; }, 10s, m0);
+    ASSERT_TRUE(ret);
+    EXPECT_EQ(parse(*ret)["error"], "retained command refused: publish commands without retain");
+    // the retained message stays on the broker until cleared: clear it (an empty payload)
+    ASSERT_TRUE(peer.publish("scaratwin/v1/r1/command", "", true));
+    const json shot = command(peer, "r1", "shot", "shoot a.png");
+    EXPECT_EQ(shot.value("ok", true), false);
+    EXPECT_EQ(shot.value("error", ""),
+              "shoot a.png: over MQTT a picture is not saved on the hub's machine: send 'shoot' "
+              "alone");
+    m0 = peer.count();
+    ASSERT_TRUE(peer.publish("scaratwin/v1/r1/command",
+                             json{{"id", "q0"}, {"statement", "wait 3"}}.dump()));
+    // running (not waiting) once the state's job shows it
+    ASSERT_TRUE(peer.wait(
+        "scaratwin/v1/r1/state",
+        [](const Message& m) { return parse(m)["job"]["running"] == true; }, 10s, m0));
+    for (int i = 1; i <= 9; ++i) {
+      ASSERT_TRUE(
+          peer.publish("scaratwin/v1/r1/command",
+                       json{{"id", fmt::format("q{}", i)}, {"statement", "wait 0"}}.dump()));
+    }
+    auto busy = peer.wait(
+        "scaratwin/v1/r1/reply", [](const Message& m) { return parse(m)["id"] == "q9"; }, 10s, m0);
+    ASSERT_TRUE(busy);
+    EXPECT_EQ(parse(*busy)["error"],
+              "robot 'r1' is busy: 8 commands already wait (--queue); nothing was done");
+    for (int i = 0; i <= 8; ++i) {
+      auto r = peer.wait(
+          "scaratwin/v1/r1/reply",
+          [&](const Message& m) { return parse(m)["id"] == fmt::format("q{}", i); }, 20s, m0);
+      ASSERT_TRUE(r) << "q" << i;
+      EXPECT_EQ(parse(*r)["ok"], true) << r->payload;
+    }
+  }
 
   // malformed and oversized payloads: a clear error, nothing run
   std::size_t mark = peer.count();

@@ -219,6 +219,42 @@ TEST_F(FleetTls, AWrongPasswordIsRefusedByTheBroker) {
                  "refused the connection: Connection Refused: not authorised.");
 }
 
+// docs/fleet.md: "any command to `scaratwin demo`" is answered with its refusal, and the
+// handler (which would run it) is never called
+TEST_F(FleetTls, ADemosRobotTakesNoCommands) {
+  auto address = fleet::parse_broker_url(
+      url("mqtts", lab->port_ok,
+          fmt::format("ca={}&password-file={}", lab->ca.string(), lab->password_file.string())));
+  ASSERT_TRUE(address);
+  BridgeOptions o;
+  o.broker = *address;
+  o.robot = "paper-scara";
+  o.accept_commands = false;
+  std::atomic<int> called{0};
+  auto b = MqttBridge::start(o,
+                             [&](const fleet::Command&) {
+                               ++called;
+                               return Status{Ok{}};
+                             },
+                             {});
+  ASSERT_TRUE(b) << b.error().message;
+  test::Peer peer(lab->port_ok, "scaratwin/v1/paper-scara/#", good_peer());
+  ASSERT_TRUE(peer.ok());
+  ASSERT_TRUE(peer.wait(
+      "scaratwin/v1/paper-scara/connection",
+      [](const test::Message& m) { return m.payload == "online"; }, 15s));
+  ASSERT_TRUE(
+      peer.publish("scaratwin/v1/paper-scara/command", R"({"id": "d1", "statement": "home"})"));
+  auto reply = peer.wait(
+      "scaratwin/v1/paper-scara/reply", [](const test::Message&) { return true; }, 10s);
+  ASSERT_TRUE(reply);
+  const auto j = nlohmann::json::parse(reply->payload);
+  EXPECT_EQ(j["id"], "d1");
+  EXPECT_EQ(j["ok"], false);
+  EXPECT_EQ(j["error"], "robot 'paper-scara' runs the demo: it takes no commands");
+  EXPECT_EQ(called.load(), 0);
+}
+
 TEST_F(FleetTls, CredentialFilesThatCannotBeReadAreSaidAtStart) {
   const auto refused = [](const std::string& u) {
     Watched w;

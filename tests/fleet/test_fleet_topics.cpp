@@ -181,8 +181,7 @@ TEST(FleetWatch, KeepsEachRobotsLastStateAndConnectionAndNothingElse) {
   // malformed: not JSON, not an object, larger than the cap
   f.on_message("scaratwin/v1/r2/state", "{\"seq\": 9");
   f.on_message("scaratwin/v1/r2/state", "[9]");
-  f.on_message("scaratwin/v1/r2/state",
-               "{\"pad\": \"" + std::string(scaratwin::fleet::kMaxStateBytes, 'x') + "\"}");
+  f.on_message("scaratwin/v1/r2/state", "{\"pad\": \"" + std::string(16384, 'x') + "\"}");
 
   const auto c = f.counters();
   EXPECT_EQ(c.states, 2u);
@@ -204,6 +203,25 @@ TEST(FleetWatch, KeepsEachRobotsLastStateAndConnectionAndNothingElse) {
   EXPECT_GE(snap["robots"][1]["age_ms"].get<double>(), 0.0);
 }
 
+// docs/fleet.md: "a state over 16 KiB is not parsed": 16,384 bytes are, 16,385 are not
+TEST(FleetWatch, AStateOf16KiBIsKeptOneByteMoreIsNot) {
+  using scaratwin::fleet::FleetWatcher;
+  scaratwin::fleet::BrokerAddress nowhere;
+  nowhere.host = "127.0.0.1";
+  nowhere.port = 1;
+  auto w = FleetWatcher::start(nowhere, {});
+  ASSERT_TRUE(w) << w.error().message;
+  const std::string head = "{\"pad\": \"", tail = "\"}";
+  const std::string at_cap = head + std::string(16384 - head.size() - tail.size(), 'x') + tail;
+  ASSERT_EQ(at_cap.size(), 16384u);
+  (*w)->on_message("scaratwin/v1/r1/state", at_cap);
+  EXPECT_EQ((*w)->counters().states, 1u);
+  EXPECT_EQ((*w)->counters().malformed, 0u);
+  (*w)->on_message("scaratwin/v1/r1/state", head + "y" + at_cap.substr(head.size()));
+  EXPECT_EQ((*w)->counters().states, 1u);
+  EXPECT_EQ((*w)->counters().malformed, 1u);
+}
+
 TEST(FleetWatch, AStrangerCannotGrowItBeyondItsRobotCap) {
   using scaratwin::fleet::FleetWatcher;
   scaratwin::fleet::BrokerAddress nowhere;
@@ -211,10 +229,11 @@ TEST(FleetWatch, AStrangerCannotGrowItBeyondItsRobotCap) {
   nowhere.port = 1;
   auto w = FleetWatcher::start(nowhere, {});
   ASSERT_TRUE(w) << w.error().message;
-  for (std::size_t i = 0; i < scaratwin::fleet::kMaxWatchedRobots + 5; ++i) {
+  // docs/fleet.md: "at most 1,000 robots are kept" (the number from the docs, not the code)
+  for (std::size_t i = 0; i < 1000 + 5; ++i) {
     (*w)->on_message("scaratwin/v1/r" + std::to_string(i) + "/connection", "online");
   }
-  EXPECT_EQ((*w)->robots().size(), scaratwin::fleet::kMaxWatchedRobots);
+  EXPECT_EQ((*w)->robots().size(), 1000u);
   EXPECT_EQ((*w)->counters().ignored, 5u);
   EXPECT_FALSE(FleetWatcher::start(scaratwin::fleet::BrokerAddress{}, {}));  // no host
 }

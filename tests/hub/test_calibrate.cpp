@@ -18,6 +18,7 @@
 #include <gtest/gtest.h>
 #include <toml++/toml.h>
 
+#include "../parameter_bounds.hpp"
 #include "scaratwin/config/robot_config.hpp"
 #include "scaratwin/hub/process.hpp"
 #include "scaratwin/kinematics/physical.hpp"
@@ -127,6 +128,9 @@ void calibrates_build(int seed) {
     EXPECT_LE(std::abs(identified - true_value), 3.0 * se)
         << "seed " << seed << ": " << key << " identified " << identified << " +- " << se
         << ", true " << true_value;
+    EXPECT_LE(std::abs(identified - true_value), test::absolute_bound(key))
+        << "seed " << seed << ": " << key << " identified " << identified << ", true "
+        << true_value;
   }
   // under 3 minutes of the robot's own (emulated) time
   const std::string out = (*cal)->output_tail(400);

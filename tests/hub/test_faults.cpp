@@ -109,10 +109,17 @@ class Side {
     }
     return false;
   }
-  // True when Z, J2 and J3 do not move for 300 ms.
+  // True when Z, J2 and J3 do not move for 300 ms of the emulated robot's own time (its clock
+  // must advance: a stalled emulator, whose motors also keep still, is not at rest). False when
+  // the clock does not advance that far within 10 s of wall time.
   bool at_rest() {
+    const std::int64_t from = truth("sim_us");
     const auto a = std::array{truth("z"), truth("j2"), truth("j3")};
-    std::this_thread::sleep_for(300ms);
+    const auto end = std::chrono::steady_clock::now() + 10s;
+    while (truth("sim_us") < from + 300000) {
+      if (std::chrono::steady_clock::now() > end) return false;
+      std::this_thread::sleep_for(20ms);
+    }
     return a == std::array{truth("z"), truth("j2"), truth("j3")};
   }
 

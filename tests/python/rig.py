@@ -61,9 +61,20 @@ class Truth:
             time.sleep(0.02)
         return False
 
+    def sim_us(self):
+        fields = dict(kv.split("=", 1) for kv in self.command("query").split()[1:] if "=" in kv)
+        return int(fields["sim_us"])
+
     def at_rest(self):
+        """No motor moves for 300 ms of the emulated robot's own clock, which must advance (a
+        stalled emulator's motors keep still too); False if it does not within 10 s."""
+        start = self.sim_us()
         a = self.steps()
-        time.sleep(0.3)
+        end = time.monotonic() + 10
+        while self.sim_us() < start + 300_000:
+            if time.monotonic() > end:
+                return False
+            time.sleep(0.02)
         return np.array_equal(a, self.steps())
 
 

@@ -85,4 +85,6 @@ def test_calibrate_identifies_the_build_the_emulator_drew(tmp_path):
         truth = c.truth[key]
         assert not math.isnan(truth)
         assert abs(value - truth) <= 3 * se, (key, value, se, truth)
+        # and within docs/calibration.md's absolute bound (0.3 mm): inflated errors cannot pass
+        assert abs(value - truth) <= 0.3, (key, value, truth)
     assert any("calibrated description: " + str(overlay) in line for line in lines)

@@ -9,6 +9,7 @@
 
 #include <gtest/gtest.h>
 
+#include "../parameter_bounds.hpp"
 #include "scaratwin/core/units.hpp"
 #include "scaratwin/kinematics/physical.hpp"
 #include "scaratwin/plant/plant.hpp"
@@ -98,8 +99,8 @@ TEST(Webcam, AdjustedMovesTurnsAndScales) {
   EXPECT_DOUBLE_EQ(w.k1, -0.3);
   EXPECT_NEAR(rotation_error_deg(w, base), rad_to_deg(a), 1e-9);
   // and adjustment() reads the change back (adjusted() is checked by hand above)
-  const WebcamParams back = adjustment(base, adjusted(base, {0.001, -0.002, 0.003, 0.004, -0.005,
-                                                             a, 0.02, -0.3}));
+  const WebcamParams back =
+      adjustment(base, adjusted(base, {0.001, -0.002, 0.003, 0.004, -0.005, a, 0.02, -0.3}));
   const WebcamParams want{0.001, -0.002, 0.003, 0.004, -0.005, a, 0.02, -0.3};
   for (int i = 0; i < kWebcamParams; ++i) EXPECT_NEAR(back[i], want[i], 1e-12) << i;
 }
@@ -138,6 +139,15 @@ TEST(Webcam, PatternCornersFollowTheDescription) {
 
 // Synthetic corners: the pattern seen by `truth` through a straight-edged lens (k1 = k2 = 0:
 // the detector's line intersections are then the corners' own projections), with seeded noise.
+// The absolute bounds of docs/calibration.md in the fit's own units: position (m), rotation
+// (rad), the relative focal change (a fraction) and k1.
+double webcam_bound(int i) {
+  if (i < 3) return test::kBoundMm * 1e-3;
+  if (i < 6) return test::kBoundDeg * M_PI / 180.0;
+  if (i == 6) return test::kBoundPercent / 100.0;
+  return test::kBoundK1;
+}
+
 std::vector<TagCorners> synthetic(const WebcamModel& truth, const RobotModel& m, double sigma_px,
                                   std::uint64_t seed) {
   std::mt19937_64 rng(seed);
@@ -175,6 +185,7 @@ TEST(WebcamFit, RecoversASyntheticCameraAndHoldsTheUnobservableFocalLength) {
     if (i == 6) continue;
     EXPECT_GT(fit->std_error[i], 0.0) << i;
     EXPECT_LT(std::abs(fit->params[i] - d[i]), 3.0 * fit->std_error[i]) << i;
+    EXPECT_LE(std::abs(fit->params[i] - d[i]), webcam_bound(i)) << i;
   }
 }
 
@@ -192,6 +203,7 @@ TEST(WebcamFit, FitsTheFocalLengthWhenThePatternIsSeenObliquely) {
   EXPECT_GT(fit->std_error[6], 0.0);
   for (int i = 0; i < kWebcamParams; ++i) {
     EXPECT_LT(std::abs(fit->params[i] - d[i]), 3.0 * fit->std_error[i] + 1e-12) << i;
+    EXPECT_LE(std::abs(fit->params[i] - d[i]), webcam_bound(i)) << i;
   }
 }
 

@@ -24,6 +24,11 @@ struct mosquitto_message;
 
 namespace scaratwin::fleet {
 
+// libmosquitto's setup, once per process however often it is called (a second
+// mosquitto_lib_init() leaks its TLS password prompt); every broker client of this process,
+// ours and the tests' and benchmarks', goes through it. Fails with the library's words.
+Status init_mqtt_library();
+
 struct BridgeOptions {
   BrokerAddress broker;
   std::string robot;      // the topic level of this robot (check_robot_name)
