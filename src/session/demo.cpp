@@ -388,6 +388,8 @@ Result<DemoOutcome> run_demo_phases(Hub& hub, TwinDb& db, const DemoPhaseOptions
       hub.record_metric(metric::kReplayToolMaxMm, m_to_mm(d.tool_max_m), "mm");
       hub.record_metric(metric::kReplayToolRmsMm, m_to_mm(d.tool_rms_m), "mm");
       hub.record_metric(metric::kReplayFinalMm, m_to_mm(d.tool_final_m), "mm");
+      out.replay_rms_mm = m_to_mm(d.tool_rms_m);
+      out.replay_max_mm = m_to_mm(d.tool_max_m);
       say(fmt::format(
           "    replay vs prediction: tool deviation max {:.2f} mm, RMS {:.2f} mm, final "
           "{:.3f} mm",

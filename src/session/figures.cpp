@@ -93,6 +93,10 @@ Status write_results(const std::filesystem::path& path, const std::string& plant
                             {"p50", o.latency.device_to_sim_ms.p50},
                             {"p99", o.latency.device_to_sim_ms.p99}};
   j["mirror_lost_frames"] = o.lost_frames;
+  j["replay_vs_prediction_mm"] =
+      std::isnan(o.replay_max_mm)
+          ? json(nullptr)
+          : json{{"rms", o.replay_rms_mm}, {"max", o.replay_max_mm}};
   std::ofstream f(path);
   f << j.dump(2) << "\n";
   if (!f) return Error{AppError::kWriteFailed, "cannot write " + path.string()};

@@ -226,6 +226,11 @@ void sorts_and_records(bool calibrate, const char* robot_speed) {
   EXPECT_EQ(r.at("physical_cubes_in_trays"), 3);
   EXPECT_EQ(r.at("virtual_cubes_in_trays"), 3);
   EXPECT_EQ(r.at("mirror_lost_frames"), 0);
+  // the replay against the prediction: present, RMS <= max (its bound under load is issue 39's)
+  ASSERT_TRUE(r.at("replay_vs_prediction_mm").is_object()) << r.at("replay_vs_prediction_mm");
+  EXPECT_GT(r.at("replay_vs_prediction_mm").at("rms").get<double>(), 0.0);
+  EXPECT_LE(r.at("replay_vs_prediction_mm").at("rms").get<double>(),
+            r.at("replay_vs_prediction_mm").at("max").get<double>());
   EXPECT_GT(r.at("mirror_latency_ms").at("p99").get<double>(), 0.0);
   for (const char* axis : {"z", "j2", "j3"}) {
     // nothing lost in the demo, and homing again agrees with the truth to within one step

@@ -187,6 +187,37 @@ def test_without_a_hub_the_board_resets_and_a_move_is_refused_with_the_way_out(r
     assert tuple(int(v) for v in truth.steps()) == before  # nothing moved
 
 
+def test_a_move_while_the_robot_is_silent_is_refused_and_nothing_moves(rig, tmp_path):
+    """docs/protocol.md 11.1: "A move started while the robot is silent is refused before
+    anything moves"; once the link is back, the robot is driven again."""
+    truth = rig["truth"]
+    hub, log = start_hub(rig, tmp_path)
+    try:
+        wait_for(log, "its port's statements at", hub)
+        assert cli("home", "--serial", rig["pty"], "--sim", rig["sim"]).returncode == 0
+        before = tuple(int(v) for v in truth.steps())
+        assert truth.command("cut 9000") == "OK cut 9000"
+        wait_for(log, "the robot link is silent for", hub, timeout_s=20)
+        r = cli("movej", "0.05", "30", "45", "0", "--serial", rig["pty"], "--sim", rig["sim"])
+        assert r.returncode == 1, r.stdout
+        assert ("the robot link is silent (no state report: cut or unplugged): nothing moved"
+                in r.stderr), r.stderr
+        assert truth.at_rest()
+        assert tuple(int(v) for v in truth.steps()) == before
+        # the cut ends: the hub says so, and the robot is driven again (homed again if the
+        # hub stopped it)
+        wait_for(log, "the robot link is back", hub, timeout_s=30)
+        r = cli("movej", "0.10", "0", "0", "0", "--serial", rig["pty"], "--sim", rig["sim"])
+        if r.returncode != 0:
+            assert cli("home", "--serial", rig["pty"], "--sim", rig["sim"]).returncode == 0
+            r = cli("movej", "0.10", "0", "0", "0", "--serial", rig["pty"], "--sim", rig["sim"])
+        assert r.returncode == 0, r.stderr
+        assert truth.at_rest()
+        assert abs(int(truth.steps()[0]) - round(0.10 * Z_STEPS_PER_M)) <= 1
+    finally:
+        stop(hub)
+
+
 def children_of(pid):
     kids = []
     for entry in os.listdir("/proc"):

@@ -414,5 +414,20 @@ TEST(PromiseEeprom, SettingsSurviveAPowerCycleAndABadChecksumRestoresTheDefaults
   std::filesystem::remove(path);
 }
 
+// docs/firmware.md: the jog buttons are sampled every 5 ms and debounced over 20 ms. A press
+// of 12 ms (at most three samples) is a bounce: no event, no step; one of 40 ms is a press.
+TEST_F(Promise, AJogButtonPressShorterThanTheDebounceIsABounce) {
+  const std::int32_t j2 = robot.truth().i("j2");
+  ASSERT_EQ(robot.side("press j2+ 12"), "OK press j2+ 12");
+  for (const std::string& l : lines_for_sim_ms(robot, 300)) {
+    EXPECT_EQ(l.rfind("EV=4=", 0), std::string::npos) << l;
+  }
+  EXPECT_EQ(robot.truth().i("j2"), j2) << "a bounce moved J2";
+  ASSERT_EQ(robot.side("press j2+ 40"), "OK press j2+ 40");
+  bool pressed = false;
+  for (const std::string& l : lines_for_sim_ms(robot, 300)) pressed = pressed || l == "EV=4=2=";
+  EXPECT_TRUE(pressed) << "a 40 ms press is a press of J2+";
+}
+
 }  // namespace
 }  // namespace scaratwin::test

@@ -7,6 +7,7 @@
 #include <array>
 #include <cstdint>
 #include <filesystem>
+#include <limits>
 #include <optional>
 #include <string>
 #include <vector>
@@ -44,6 +45,10 @@ struct DemoOutcome {
   std::vector<double> control_error_mm;  // target -> true tool, per control target
   int physical_in_trays = -1;            // where the physical cubes ended up
   ToolErrorStats virt_phys_along;        // virtual -> true tool along every motion
+  // the physical replay against the simulator's prediction, tool deviation at equal progress
+  // along the path (RMS and max, mm; NaN when either run recorded nothing)
+  double replay_rms_mm = std::numeric_limits<double>::quiet_NaN();
+  double replay_max_mm = std::numeric_limits<double>::quiet_NaN();
   std::optional<std::array<long long, 3>> steps_lost_truth;
   std::optional<std::array<int, 3>> steps_lost_homing;
   LatencyFigures latency;
