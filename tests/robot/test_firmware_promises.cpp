@@ -417,7 +417,7 @@ TEST(PromiseEeprom, SettingsSurviveAPowerCycleAndABadChecksumRestoresTheDefaults
 // docs/firmware.md: the jog buttons are sampled every 5 ms and debounced over 20 ms. A press
 // of 12 ms (at most three samples) is a bounce: no event, no step; one of 40 ms is a press.
 TEST_F(Promise, AJogButtonPressShorterThanTheDebounceIsABounce) {
-  const std::int32_t j2 = robot.truth().i("j2");
+  const auto j2 = robot.truth().i("j2");
   ASSERT_EQ(robot.side("press j2+ 12"), "OK press j2+ 12");
   for (const std::string& l : lines_for_sim_ms(robot, 300)) {
     EXPECT_EQ(l.rfind("EV=4=", 0), std::string::npos) << l;
