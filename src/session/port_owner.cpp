@@ -186,7 +186,8 @@ void PortOwner::stop() {
     (void)!::write(wake_[1], &c, 1);
     thread_.join();
   }
-  while (active_.load() > 0) std::this_thread::sleep_for(std::chrono::milliseconds(10));
+  std::unique_lock<std::mutex> lock(mu_);
+  idle_.wait(lock, [this] { return active_ == 0; });
 }
 
 PortOwner::~PortOwner() {
@@ -216,11 +217,17 @@ void PortOwner::accept_loop() {
     if (fds[1].revents != 0) return;
     const int fd = ::accept4(listen_fd_, nullptr, nullptr, SOCK_CLOEXEC);
     if (fd < 0) continue;
-    ++active_;
+    {
+      std::lock_guard<std::mutex> lock(mu_);
+      ++active_;
+    }
     std::thread([this, fd] {
       answer(fd);
       ::close(fd);
-      --active_;
+      // notified under the lock: once it is released this thread touches nothing of the
+      // owner, which stop() may then destroy
+      std::lock_guard<std::mutex> lock(mu_);
+      if (--active_ == 0) idle_.notify_all();
     }).detach();
   }
 }

@@ -18,10 +18,11 @@
 
 #include <sys/types.h>
 
-#include <atomic>
+#include <condition_variable>
 #include <filesystem>
 #include <functional>
 #include <memory>
+#include <mutex>
 #include <optional>
 #include <string>
 #include <thread>
@@ -83,7 +84,9 @@ class PortOwner {
   int wake_[2] = {-1, -1};  // closes the accept loop
   Handler handler_;
   std::thread thread_;
-  std::atomic<int> active_{0};
+  std::mutex mu_;
+  std::condition_variable idle_;  // active_ fell to 0
+  int active_ = 0;                // requests being answered (mu_)
 };
 
 // The line a statement's result is printed as: the result alone, or for a script's statement
