@@ -31,6 +31,10 @@ constexpr double kDesyncWindowS = 1.5;
 
 constexpr const char* kInterrupted = "interrupted";
 
+// A command refused because the robot's reports stopped (docs/protocol.md 11.1).
+constexpr const char* kRobotSilent =
+    "the robot link is silent (no state report: cut or unplugged): nothing moved";
+
 // Longest time between two trajectory points sent to the robot (the firmware's limit is 5 s).
 constexpr double kLongestPointS = 4.0;
 
@@ -47,6 +51,8 @@ Result<PhysicalState> Hub::fresh_physical(double timeout_s) {
   std::unique_lock<std::mutex> lock(mu_);
   const std::uint64_t n = state_count_;
   if (!cv_.wait_for(lock, ms(timeout_s), [&] { return state_count_ > n || interrupted_; })) {
+    // the link watch already knows: say what it knows rather than what this wait saw
+    if (robot_silent_) return hub_error(kRobotSilent);
     return hub_error(fmt::format("no state report from the robot within {} s", timeout_s));
   }
   if (interrupted_) return hub_error(kInterrupted);
@@ -456,7 +462,7 @@ Result<int> Hub::run_trajectory(const JointTrajectory& traj, double timeout_s) {
   }();
   if (robot_silent) {
     clear_tracker();
-    return hub_error("the robot link is silent (no state report: cut or unplugged): nothing moved");
+    return hub_error(kRobotSilent);
   }
   auto load = statements_->load_trajectory(sent);
   if (interrupted_) return give_up(kInterrupted);

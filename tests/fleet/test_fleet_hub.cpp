@@ -274,24 +274,15 @@ TEST(FleetHub, ServesItsRobotOnTheBrokerAndOnlyIts) {
   EXPECT_EQ(parse_error.value("ok", true), false);
   EXPECT_EQ(parse_error.value("error", ""), cli_parse_error);
 
-  // docs/fleet.md's refusals, each with its documented words: a retained command; `shoot
-  // FILE`; the ninth command waiting behind a running one (the queue holds 8)
+  // docs/fleet.md's refusals, each with its documented words: `shoot FILE`; the ninth command
+  // waiting behind a running one (the queue holds 8); a retained command further down
   {
-    std::size_t m0 = peer.count();
-    ASSERT_TRUE(peer.publish("scaratwin/v1/r1/command",
-                             json{{"id", "ret"}, {"statement", "wait 0"}}.dump(), true));
-    auto ret = peer.wait(
-        "scaratwin/v1/r1/reply", [](const Message& m) { return parse(m)["id"] == "ret"; }, 10s, m0);
-    ASSERT_TRUE(ret);
-    EXPECT_EQ(parse(*ret)["error"], "retained command refused: publish commands without retain");
-    // the retained message stays on the broker until cleared: clear it (an empty payload)
-    ASSERT_TRUE(peer.publish("scaratwin/v1/r1/command", "", true));
     const json shot = command(peer, "r1", "shot", "shoot a.png");
     EXPECT_EQ(shot.value("ok", true), false);
     EXPECT_EQ(shot.value("error", ""),
               "shoot a.png: over MQTT a picture is not saved on the hub's machine: send 'shoot' "
               "alone");
-    m0 = peer.count();
+    const std::size_t m0 = peer.count();
     ASSERT_TRUE(peer.publish("scaratwin/v1/r1/command",
                              json{{"id", "q0"}, {"statement", "wait 3"}}.dump()));
     // running (not waiting) once the state's job shows it
@@ -366,9 +357,24 @@ TEST(FleetHub, ServesItsRobotOnTheBrokerAndOnlyIts) {
   ASSERT_TRUE(retained);
   EXPECT_EQ(retained->payload, "offline") << "a dashboard that comes later reads offline too";
 
+  // a retained command, published while no hub listens: the broker hands it to the next hub
+  // as it subscribes (a live subscriber gets it unretained), which refuses it, runs nothing,
+  // and says why; then it is cleared from the broker
+  const auto before_retained = truth.motors();
+  mark = peer.count();
+  ASSERT_TRUE(peer.publish("scaratwin/v1/r1/command",
+                           json{{"id", "ret"}, {"statement", "movej 0.05 0 0 0"}}.dump(), true));
+  ASSERT_NO_FATAL_FAILURE(rig.start_hub("r1"));
+  auto ret = peer.wait(
+      "scaratwin/v1/r1/reply", [](const Message& m) { return parse(m)["id"] == "ret"; }, 30s, mark);
+  ASSERT_TRUE(ret) << rig.hub->output_tail();
+  EXPECT_EQ(parse(*ret)["ok"], false);
+  EXPECT_EQ(parse(*ret)["error"], "retained command refused: publish commands without retain");
+  ASSERT_TRUE(peer.publish("scaratwin/v1/r1/command", "", true));
+  EXPECT_EQ(truth.motors(), before_retained) << "nothing moved on the retained command";
+
   // SIGTERM ends a hub as Ctrl-C does (status 130), and it reads offline (its own goodbye; a
   // broker cannot tell it from the will, which the closed socket would also fire)
-  ASSERT_NO_FATAL_FAILURE(rig.start_hub("r1"));
   ASSERT_TRUE(late.wait(
       "scaratwin/v1/r1/connection", [](const Message& m) { return m.payload == "online"; }, 30s));
   mark = late.count();
@@ -441,9 +447,11 @@ TEST(FleetHub, OverTlsTheRightCaDrivesTheRobotAWrongOneMovesNothing) {
   EXPECT_NEAR(static_cast<double>(truth.get("z")), 0.10 * kZStepsPerM, 200.0);
 
   // the fleet page's watcher over TLS: connected, and its arguments hold no password either
-  auto sim = ChildProcess::start(kBin / "scaratwin-sim",
-                                 {"--port", "0", "--http-port", "0", "--no-camera", "--mqtt", good},
-                                 rig.dir / "sim2.log");
+  auto sim =
+      ChildProcess::start(kBin / "scaratwin-sim",
+                          {"--port", "0", "--http-port", std::to_string(test::free_loopback_port()),
+                           "--no-camera", "--mqtt", good},
+                          rig.dir / "sim2.log");
   ASSERT_TRUE(sim) << sim.error().message;
   auto watching = (*sim)->wait_for_line(
       fmt::format("fleet: broker mqtts://{}@localhost:{} connected", lab.user, lab.port_ok), 60s);
