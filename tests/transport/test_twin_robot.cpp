@@ -71,6 +71,10 @@ Result<RobotChannel::Reply> greet(RobotChannel& channel) {
 TEST(TwinWithFirmware, StatementsAgainstTheEmulatedRobot) {
   auto model = load_robot_config(SCARATWIN_CONFIG_FILE);
   ASSERT_TRUE(model) << model.error().message;
+  // declared before the link and the channel, whose io thread runs the handler until they
+  // are destroyed (see EveryStateReportReachesTheMirrorWhileATrajectoryStreams)
+  std::mutex m;
+  std::vector<protocol::DeviceEvent> events;
   Emulator emu;
   ASSERT_GT(emu.pid, 0);
   SerialOptions so;
@@ -79,8 +83,6 @@ TEST(TwinWithFirmware, StatementsAgainstTheEmulatedRobot) {
   ASSERT_TRUE(link);
   ASSERT_TRUE((*link)->wait_connected(Duration{10000})) << "emulator did not come up";
   RobotChannel channel(**link, robot_channel_defaults());
-  std::mutex m;
-  std::vector<protocol::DeviceEvent> events;
   channel.set_unsolicited_handler([&](protocol::SerialFromDevice&& msg, const RxPacket&) {
     if (auto* ev = std::get_if<protocol::DeviceEvent>(&msg)) {
       std::lock_guard lock(m);
@@ -150,6 +152,13 @@ TEST(TwinWithFirmware, StatementsAgainstTheEmulatedRobot) {
 TEST(TwinWithFirmware, EveryStateReportReachesTheMirrorWhileATrajectoryStreams) {
   auto model = load_robot_config(SCARATWIN_CONFIG_FILE);
   ASSERT_TRUE(model) << model.error().message;
+  // what the channel's handler writes into, declared before the link and the channel: their
+  // io thread runs the handler until they are destroyed, and they are destroyed first (the
+  // other order let a report arrive into freed vectors as the test ended: ASan, CI)
+  std::mutex m;
+  std::vector<std::uint16_t> seqs;
+  std::vector<std::uint32_t> times;
+  bool homed = false, done = false;
   Emulator emu("1");
   ASSERT_GT(emu.pid, 0);
   SerialOptions so;
@@ -158,10 +167,6 @@ TEST(TwinWithFirmware, EveryStateReportReachesTheMirrorWhileATrajectoryStreams) 
   ASSERT_TRUE(link);
   ASSERT_TRUE((*link)->wait_connected(Duration{10000})) << "emulator did not come up";
   RobotChannel channel(**link, robot_channel_defaults());
-  std::mutex m;
-  std::vector<std::uint16_t> seqs;
-  std::vector<std::uint32_t> times;
-  bool homed = false, done = false;
   channel.set_unsolicited_handler([&](protocol::SerialFromDevice&& msg, const RxPacket&) {
     std::lock_guard lock(m);
     if (const auto* st = std::get_if<protocol::DeviceState>(&msg)) {

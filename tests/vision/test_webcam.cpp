@@ -139,10 +139,10 @@ TEST(Webcam, PatternCornersFollowTheDescription) {
 
 // Synthetic corners: the pattern seen by `truth` through a straight-edged lens (k1 = k2 = 0:
 // the detector's line intersections are then the corners' own projections), with seeded noise.
-// The absolute bounds of docs/calibration.md in the fit's own units: position (m), rotation
-// (rad), the relative focal change (a fraction) and k1.
+// The absolute bounds of docs/calibration.md in the fit's own units: position (m; one view's,
+// kBoundOneViewMm), rotation (rad), the relative focal change (a fraction) and k1.
 double webcam_bound(int i) {
-  if (i < 3) return test::kBoundMm * 1e-3;
+  if (i < 3) return test::kBoundOneViewMm * 1e-3;
   if (i < 6) return test::kBoundDeg * M_PI / 180.0;
   if (i == 6) return test::kBoundPercent / 100.0;
   return test::kBoundK1;
