@@ -158,14 +158,19 @@ TEST(FleetTopics, RepliesEchoTheId) {
 }  // namespace
 }  // namespace scaratwin::fleet
 
+// A broker address where nobody listens (port 1): the watcher only retries in the background.
+static scaratwin::fleet::BrokerAddress nowhere() {
+  scaratwin::fleet::BrokerAddress a;
+  a.host = "127.0.0.1";
+  a.port = 1;
+  return a;
+}
+
 // The fleet page's watcher: which messages it keeps, without a broker (it is pointed at a
 // port where none listens, so it only retries in the background).
 TEST(FleetWatch, KeepsEachRobotsLastStateAndConnectionAndNothingElse) {
   using scaratwin::fleet::FleetWatcher;
-  scaratwin::fleet::BrokerAddress nowhere;
-  nowhere.host = "127.0.0.1";
-  nowhere.port = 1;
-  auto w = FleetWatcher::start(nowhere, {});
+  auto w = FleetWatcher::start(nowhere(), {});
   ASSERT_TRUE(w) << w.error().message;
   FleetWatcher& f = **w;
   f.on_message("scaratwin/v1/r2/connection", "online");
@@ -206,10 +211,7 @@ TEST(FleetWatch, KeepsEachRobotsLastStateAndConnectionAndNothingElse) {
 // docs/fleet.md: "a state over 16 KiB is not parsed": 16,384 bytes are, 16,385 are not
 TEST(FleetWatch, AStateOf16KiBIsKeptOneByteMoreIsNot) {
   using scaratwin::fleet::FleetWatcher;
-  scaratwin::fleet::BrokerAddress nowhere;
-  nowhere.host = "127.0.0.1";
-  nowhere.port = 1;
-  auto w = FleetWatcher::start(nowhere, {});
+  auto w = FleetWatcher::start(nowhere(), {});
   ASSERT_TRUE(w) << w.error().message;
   const std::string head = "{\"pad\": \"", tail = "\"}";
   const std::string at_cap = head + std::string(16384 - head.size() - tail.size(), 'x') + tail;
@@ -224,10 +226,7 @@ TEST(FleetWatch, AStateOf16KiBIsKeptOneByteMoreIsNot) {
 
 TEST(FleetWatch, AStrangerCannotGrowItBeyondItsRobotCap) {
   using scaratwin::fleet::FleetWatcher;
-  scaratwin::fleet::BrokerAddress nowhere;
-  nowhere.host = "127.0.0.1";
-  nowhere.port = 1;
-  auto w = FleetWatcher::start(nowhere, {});
+  auto w = FleetWatcher::start(nowhere(), {});
   ASSERT_TRUE(w) << w.error().message;
   // docs/fleet.md: "at most 1,000 robots are kept" (the number from the docs, not the code)
   for (std::size_t i = 0; i < 1000 + 5; ++i) {
